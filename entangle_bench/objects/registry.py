@@ -1,0 +1,244 @@
+"""Registry of target objects by name and the single entry point that adds one to an MjSpec.
+
+Body convention: one free body `object` whose origin lies on the object's vertical axis (the trunk
+axis of trees, otherwise the centre of the bounding box in x and y) at its lowest point, so `pos=(x, y, 0)` sets it on the ground.
+Mass and inertia are set explicitly from the union of the parts (see geometry.union_moments) or,
+for mesh objects, from the source mesh; geoms carry no mass of their own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from entangle_bench.errors import ParameterError, UnknownNameError
+from entangle_bench.objects import meshes, primitives, trees
+from entangle_bench.objects.geometry import (
+    Box,
+    Capsule,
+    ConvexMesh,
+    Cylinder,
+    Part,
+    Shape,
+    Sphere,
+    hull_points,
+    hull_volume,
+    union_moments,
+)
+
+_DEXNET = {
+    # mesh stem: CoACD settings; masses from the default 1000 kg/m^3 (plastic parts)
+    "bar_clamp": meshes.CoacdSettings(),
+    "climbing_hold": meshes.CoacdSettings(),
+    "endstop_holder": meshes.CoacdSettings(),
+    "mount1": meshes.CoacdSettings(),
+    "gearbox": meshes.CoacdSettings(),
+}
+
+_REGISTRY: dict[str, tuple[Any, str]] = {
+    "eight_branch_tree": (trees.EightBranchTreeParams(),
+                          "reference tree: trunk with 8 capsule branches on a base disc"),
+    "random_tree": (trees.RandomTreeParams(), "seeded procedural tree (plant / coral stand-in)"),
+    "sphere": (primitives.SphereParams(), "100 mm light hollow ball, 50 g"),
+    "tennis_ball": (primitives.SphereParams(0.067, 0.058, 0.006), "tennis ball, 67 mm, 58 g"),
+    "cylinder_38": (primitives.CylinderParams(0.038, 0.10, 0.05), "upright cylinder, 38 mm x 100 mm"),
+    "cylinder_51": (primitives.CylinderParams(0.051, 0.10, 0.09), "upright cylinder, 51 mm x 100 mm"),
+    "cylinder_51_hollow": (primitives.CylinderParams(0.051, 0.10, 0.056, wall_thickness_m=0.003),
+                           "open tube, 51 mm outer diameter, 3 mm wall, 100 mm long"),
+    "cube": (primitives.CubeParams(), "50 mm cube, 75 g"),
+    "bracket": (primitives.BracketParams(), "bar clamp lying flat (bar, two jaws, handle)"),
+    **{f"dexnet_{stem}": (meshes.MeshObjectParams(f"dexnet/{stem}.obj", coacd=settings),
+                          f"Dex-Net 2.0 adversarial mesh {stem} (CC, see assets/dexnet/SOURCE.md)")
+       for stem, settings in _DEXNET.items()},
+}
+
+_BUILDERS: dict[type, Callable[[Any], Shape]] = {
+    trees.EightBranchTreeParams: trees.build_eight_branch_tree,
+    trees.RandomTreeParams: trees.build_random_tree,
+    primitives.SphereParams: primitives.build_sphere,
+    primitives.CylinderParams: primitives.build_cylinder,
+    primitives.CubeParams: primitives.build_cube,
+    primitives.BracketParams: primitives.build_bracket,
+    meshes.MeshObjectParams: meshes.build_mesh_object,
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class ObjectInfo:
+    """Summary of a built object (SI units, body frame described in the module docstring).
+
+    radius_m: largest horizontal distance from the vertical axis; volume_m3: volume enclosed by the
+    object's surface; phi_t = volume / convex-hull volume (effective volumetric density);
+    n_parts: collision geoms (convex parts for meshes); dims: named dimensions (m).
+    """
+
+    name: str
+    mass_kg: float
+    height_m: float
+    radius_m: float
+    volume_m3: float
+    hull_volume_m3: float
+    phi_t: float
+    n_parts: int
+    dims: dict[str, float]
+    geom_names: tuple[str, ...]
+    center_of_mass_m: tuple[float, float, float]
+    inertia_kg_m2: tuple[tuple[float, float, float], ...]
+    notes: tuple[str, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BuiltObject:
+    """Parts placed in the body frame with their mass properties and summary."""
+
+    info: ObjectInfo
+    parts: tuple[Part, ...]
+    center_of_mass: np.ndarray
+    inertia: np.ndarray
+
+
+def names() -> list[str]:
+    """Names of all registered objects, sorted."""
+    return sorted(_REGISTRY)
+
+
+def _entry(name: str) -> tuple[Any, str]:
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise UnknownNameError("object", name, names()) from None
+
+
+def default_params(name: str) -> Any:
+    """The frozen params dataclass of object `name` with its default values."""
+    return _entry(name)[0]
+
+
+def description(name: str) -> str:
+    """One-line description of object `name`."""
+    return _entry(name)[1]
+
+
+def is_mesh_object(name: str) -> bool:
+    """Whether object `name` comes from a mesh file (and so from a convex decomposition)."""
+    return isinstance(default_params(name), meshes.MeshObjectParams)
+
+
+def _check_params(name: str, params: Any) -> Any:
+    """Return `params` (or the defaults) after checking its type fits object `name`."""
+    default = default_params(name)
+    if params is None:
+        return default
+    if type(params) is not type(default):
+        raise ParameterError(f"params for object {name!r} must be {type(default).__name__}, "
+                             f"got {type(params).__name__}")
+    return params
+
+
+@functools.lru_cache(maxsize=64)
+def _build(name: str, params: Any) -> BuiltObject:
+    shape = _BUILDERS[type(params)](params)
+    lo = np.min([p.bounds()[0] for p in shape.parts], axis=0)
+    hi = np.max([p.bounds()[1] for p in shape.parts], axis=0)
+    axis = (lo[:2] + hi[:2]) / 2 if shape.axis_xy is None else np.asarray(shape.axis_xy)
+    shift = np.array([-axis[0], -axis[1], -lo[2]])
+    parts = tuple(p.translated(shift) for p in shape.parts)
+    if shape.material is not None:
+        material = shape.material.transformed(np.eye(3), shift)
+    else:
+        material = union_moments(parts, solid=False)
+    if shape.volume_m3 is not None:
+        volume = shape.volume_m3
+    elif any(isinstance(p, Sphere) and p.shell_m is not None for p in parts):
+        volume = union_moments(parts, solid=True).volume
+    else:
+        volume = material.volume
+    hull = hull_points(parts) if shape.hull is None else shape.hull + shift
+    hull_vol = hull_volume(hull)
+    inertia = material.inertia(shape.mass_kg)
+    info = ObjectInfo(
+        name=name,
+        mass_kg=float(shape.mass_kg),
+        height_m=float(hi[2] - lo[2]),
+        radius_m=max(p.max_radius() for p in parts),
+        volume_m3=float(volume),
+        hull_volume_m3=hull_vol,
+        phi_t=float(volume / hull_vol),
+        n_parts=len(parts),
+        dims=dict(shape.dims),
+        geom_names=tuple(f"object_{p.name}" for p in parts),
+        center_of_mass_m=tuple(float(x) for x in material.center),
+        inertia_kg_m2=tuple(tuple(float(x) for x in row) for row in inertia),
+        notes=shape.notes,
+    )
+    return BuiltObject(info, parts, material.center, inertia)
+
+
+def build(name: str, params: Any = None) -> BuiltObject:
+    """Parts, mass properties and summary of object `name` (cached per name and params)."""
+    return _build(name, _check_params(name, params))
+
+
+def clear_build_cache() -> None:
+    """Forget built objects (the on-disk decomposition cache is kept)."""
+    _build.cache_clear()
+
+
+def object_info(name: str, params: Any = None) -> ObjectInfo:
+    """Summary of object `name` (dimensions, mass, phi_T, parts) without building a scene."""
+    return build(name, params).info
+
+
+def _add_geom(spec: mujoco.MjSpec, body: mujoco.MjsBody, part: Part) -> None:
+    """Add the MuJoCo geom (and mesh asset) of one part to `body`."""
+    geom = body.add_geom(name=f"object_{part.name}")
+    if isinstance(part, (Capsule, Cylinder)):
+        geom.type = (mujoco.mjtGeom.mjGEOM_CAPSULE if isinstance(part, Capsule)
+                     else mujoco.mjtGeom.mjGEOM_CYLINDER)
+        geom.size = [part.radius, 0.0, 0.0]
+        geom.fromto = [*part.p0, *part.p1]
+    elif isinstance(part, Sphere):
+        geom.type = mujoco.mjtGeom.mjGEOM_SPHERE
+        geom.size = [part.radius, 0.0, 0.0]
+        geom.pos = list(part.center)
+    elif isinstance(part, Box):
+        geom.type = mujoco.mjtGeom.mjGEOM_BOX
+        geom.size = list(part.half)
+        geom.pos = list(part.center)
+        geom.quat = list(part.quat)
+    elif isinstance(part, ConvexMesh):
+        mesh_name = f"object_mesh_{part.name}"
+        spec.add_mesh(name=mesh_name, uservert=part.vertices.ravel().tolist())
+        geom.type = mujoco.mjtGeom.mjGEOM_MESH
+        geom.meshname = mesh_name
+    else:
+        raise TypeError(f"unsupported part {type(part).__name__}")
+    geom.contype = 1
+    geom.conaffinity = 1
+    geom.condim = 3
+    geom.rgba = [0.85, 0.55, 0.25, 1.0]
+
+
+def add_object(spec: mujoco.MjSpec, name: str, params: Any = None,
+               pos: Sequence[float] = (0.0, 0.0, 0.0),
+               quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0)) -> ObjectInfo:
+    """Add object `name` to `spec.worldbody` as free body `object` at `pos` (m), `quat` (w,x,y,z)."""
+    built = build(name, params)
+    if spec.body("object") is not None:
+        raise ParameterError("the scene already has a body named 'object'")
+    body = spec.worldbody.add_body(name="object", pos=list(pos), quat=list(quat))
+    body.add_freejoint(name="object_free")
+    body.mass = built.info.mass_kg
+    body.ipos = built.center_of_mass.tolist()
+    i = built.inertia
+    body.fullinertia = [i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2], i[1, 2]]
+    body.explicitinertial = True
+    for part in built.parts:
+        _add_geom(spec, body, part)
+    return built.info
+

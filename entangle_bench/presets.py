@@ -1,0 +1,99 @@
+"""Numerical presets: resolution, timestep, integrator and solver settings that trade accuracy for time.
+
+Each preset was chosen from the accuracy-time study (`scripts/accuracy_time_study.py`, README); its measured
+rod-shape error and cost are recorded there. A preset is a segment count plus `Numerics`; physics lives in
+FilamentParams and GripperParams. Applying a preset writes its segment count into the filament parameters
+(the one place a segment count lives), and user overrides (`--set gripper.filament.n_segments=..`) come after.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import mujoco
+
+from entangle_bench.config import check_choice, check_range
+from entangle_bench.errors import UnknownNameError
+
+Integrator = Literal["euler", "implicitfast", "implicit", "rk4"]
+Solver = Literal["cg", "newton", "pgs"]
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """Discretization and solver settings of one simulation."""
+
+    timestep_s: float = 2e-3
+    integrator: Integrator = "euler"
+    euler_implicit_damping: bool = False
+    """MuJoCo's implicit joint damping inside the Euler integrator (costs a second factorization per step)."""
+    solver: Solver = "cg"
+    iterations: int = 30
+    tolerance: float = 1e-6
+    ls_iterations: int = 20
+    twist_armature_scale: float = 1000.0
+    """Armature on each filament twist DOF as a multiple of the segment's spin inertia (statics unchanged)."""
+
+    def __post_init__(self) -> None:
+        check_range("numerics.timestep_s", self.timestep_s, 1e-6, 0.02)
+        check_choice("numerics.integrator", self.integrator, ("euler", "implicitfast", "implicit", "rk4"))
+        check_choice("numerics.solver", self.solver, ("cg", "newton", "pgs"))
+        check_range("numerics.iterations", self.iterations, 1, 10000)
+        check_range("numerics.tolerance", self.tolerance, 0.0, 1.0)
+        check_range("numerics.ls_iterations", self.ls_iterations, 1, 1000)
+        check_range("numerics.twist_armature_scale", self.twist_armature_scale, 1.0, 1e6)
+
+    def apply(self, spec: mujoco.MjSpec) -> None:
+        """Write timestep, integrator and solver settings into `spec.option`."""
+        opt = spec.option
+        opt.timestep = self.timestep_s
+        opt.integrator = {
+            "euler": mujoco.mjtIntegrator.mjINT_EULER,
+            "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+            "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+            "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+        }[self.integrator]
+        opt.solver = {
+            "cg": mujoco.mjtSolver.mjSOL_CG,
+            "newton": mujoco.mjtSolver.mjSOL_NEWTON,
+            "pgs": mujoco.mjtSolver.mjSOL_PGS,
+        }[self.solver]
+        opt.iterations = self.iterations
+        opt.tolerance = self.tolerance
+        opt.ls_iterations = self.ls_iterations
+        if not self.euler_implicit_damping:
+            opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named point on the accuracy-time front: segments per filament and solver numerics."""
+
+    name: str
+    n_segments: int
+    numerics: Numerics
+
+
+PRESETS: dict[str, Preset] = {
+    "fast": Preset("fast", 12, Numerics(timestep_s=4e-3)),
+    "balanced": Preset("balanced", 16, Numerics(timestep_s=2e-3)),
+    "accurate": Preset("accurate", 40, Numerics(
+        timestep_s=5e-4,
+        integrator="implicitfast",
+        solver="newton",
+        iterations=100,
+        tolerance=1e-8,
+        twist_armature_scale=100.0,
+    )),
+}
+
+DEFAULT_PRESET = "balanced"
+
+
+def get_preset(name: str) -> Preset:
+    """The named preset; unknown names raise UnknownNameError listing the known ones."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise UnknownNameError("preset", name, list(PRESETS)) from None

@@ -1,0 +1,1 @@
+"""Single-rod reference problems: case files, closed-form/BVP references and the PyElastica engine."""

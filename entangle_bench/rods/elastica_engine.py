@@ -1,0 +1,251 @@
+"""PyElastica 1.0 reference engine: damped Cosserat-rod dynamics run to static equilibrium.
+
+Model (Gazzola, Dudte, McCormick & Mahadevan, R. Soc. Open Sci. 5, 171628, 2018): one
+`CosseratRod` of `n` elements, clamped with `OneEndFixedBC` on node 0 and element 0.
+
+Clamp placement (second order): the clamp fixes element 0's director, i.e. the tangent at the
+*midpoint* of element 0, so the rod is built with element length h = L / (n - 1/2) and total
+length n h = L + h/2, with the midpoint of element 0 on the case's base point. Node 0 lies h/2
+behind the base inside the clamp and is dropped from the output; node i >= 1 sits at arclength
+(i - 1/2) h from the base. The output centerline is [base point, node 1, ..., node n] resampled to
+uniform arclength (`resample_centerline`, cubic).
+
+Inextensibility: the shear/stretch matrix is multiplied by `shear_factor` (default 20), and the
+mass moment of inertia by the same factor so that the stable time step is set by the axial wave
+speed alone, dt = cfl h / sqrt(shear_factor E / rho). Rotational inertia has no effect on a
+static equilibrium.
+
+Rest curvature: PyElastica's `rest_kappa` is the Darboux vector in its material frame
+(d1, d2, d3 = t) with d' = kappa x d, the same convention as the case file, so
+rest_kappa = (k1, k2, tau).
+
+Relaxation: `AnalyticalLinearDamper` with uniform constant nu = 2 omega1, where omega1 =
+1.875^2 sqrt(E I / (rho A L^4)) is the first bending frequency of the cantilever (critical
+damping of the slowest mode); `PositionVerlet` steps until, over two consecutive check windows,
+the nodes moved less than `settle_tol` L and the largest node speed times 1/omega1 is below
+`settle_tol` L, or `max_time_s` of simulated time has passed (then settings["converged"] is
+False). With intrinsic curvature the rod starts by default from its exact discrete rest shape
+(zero elastic energy), which is the equilibrium in zero gravity and a close start otherwise.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import time
+from collections.abc import Iterator
+from typing import Any, Literal
+
+import numpy as np
+from elastica import (
+    AnalyticalLinearDamper,
+    BaseSystemCollection,
+    Constraints,
+    CosseratRod,
+    Damping,
+    Forcing,
+    GravityForces,
+    OneEndFixedBC,
+)
+from elastica.timestepper.symplectic_steppers import PositionVerlet
+from tqdm import tqdm
+
+from entangle_bench.config import check_choice, check_range
+from entangle_bench.errors import ParameterError
+from entangle_bench.rods.analytic import rest_pose
+from entangle_bench.rods.case import RodCase, RodResult, resample_centerline
+
+ENGINE_NAME = "pyelastica"
+_FIRST_MODE = 1.875104**2
+_HANGING_CHAIN_MODE = 1.2024  # first zero of J0, 2.4048, over 2
+
+
+class _Simulator(BaseSystemCollection, Constraints, Forcing, Damping):
+    """PyElastica system collection with clamps, forcing and damping."""
+
+
+def slowest_frequency(case: RodCase) -> float:
+    """Estimate (rad/s) of the slowest mode: sqrt(omega_b^2 + omega_g^2).
+
+    omega_b = 1.875^2 sqrt(E I / (rho A L^4)) is the first bending mode of a cantilever and
+    omega_g = 1.2024 sqrt(|g| / L) the first mode of a hanging chain (Bernoulli), which
+    dominates for rods that gravity holds in tension.
+    """
+    bending = _FIRST_MODE * math.sqrt(
+        case.bending_stiffness / (case.line_density * case.length**4)
+    )
+    chain = _HANGING_CHAIN_MODE * math.sqrt(float(np.linalg.norm(case.gravity)) / case.length)
+    return math.hypot(bending, chain)
+
+
+@contextlib.contextmanager
+def _without_inertia_warning() -> Iterator[None]:
+    """Drop PyElastica's root-logger warning that thin rods have a small moment of inertia.
+
+    `allocate` compares the mass moment of inertia with an absolute tolerance, which sub-mm
+    filaments always trip; the warning says nothing about the run. The filter is removed after.
+    """
+    log_filter = logging.Filter()
+    log_filter.filter = lambda record: not record.getMessage().startswith(  # type: ignore
+        "Mass moment of inertia matrix smaller than tolerance"
+    )
+    root = logging.getLogger()
+    root.addFilter(log_filter)
+    try:
+        yield
+    finally:
+        root.removeFilter(log_filter)
+
+
+def stable_time_step(case: RodCase, n_elements: int, shear_factor: float, cfl: float) -> float:
+    """Explicit step (s): cfl h / sqrt(shear_factor E / rho), with h = L / (n - 1/2)."""
+    h = case.length / (n_elements - 0.5)
+    return cfl * h / math.sqrt(shear_factor * case.youngs_modulus / case.density)
+
+
+def _build_rod(
+    case: RodCase, n_elements: int, shear_factor: float, initial: str
+) -> CosseratRod:
+    """Create the rod with the clamp-midpoint placement, stiffened shear and rest curvature."""
+    h = case.length / (n_elements - 0.5)
+    t0 = np.asarray(case.base_direction, dtype=float)
+    start = np.asarray(case.base_position) - 0.5 * h * t0
+    with _without_inertia_warning():
+        rod = CosseratRod.straight_rod(
+            n_elements,
+            start,
+            t0,
+            np.asarray(case.base_normal, dtype=float),
+            n_elements * h,
+            case.radius,
+            case.density,
+            youngs_modulus=case.youngs_modulus,
+            shear_modulus=case.shear_modulus,
+        )
+    rod.shear_matrix[...] *= shear_factor
+    rod.mass_second_moment_of_inertia[...] *= shear_factor
+    rod.inv_mass_second_moment_of_inertia[...] /= shear_factor
+    k1, k2 = case.intrinsic_curvature
+    rod.rest_kappa[...] = np.array([k1, k2, case.intrinsic_twist])[:, None]
+    if initial == "rest":
+        positions, directors = discrete_rest_shape(case, n_elements)
+        rod.position_collection[...] = positions
+        rod.director_collection[...] = directors
+    return rod
+
+
+def discrete_rest_shape(case: RodCase, n_elements: int) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-energy state of the discrete rod: node positions (3, n+1) in m, directors (3, 3, n).
+
+    Element i has the continuous rest frame at its midpoint s = i h (so the relative rotation of
+    neighbours is exactly expm(h [Omega0]x)) and length h; node 0 sits h/2 behind the base.
+    """
+    h = case.length / (n_elements - 0.5)
+    _, frames = rest_pose(case, h * np.arange(n_elements))
+    tangents = frames[:, :, 0]
+    nodes = np.empty((n_elements + 1, 3))
+    nodes[0] = np.asarray(case.base_position) - 0.5 * h * tangents[0]
+    nodes[1:] = nodes[0] + h * np.cumsum(tangents, axis=0)
+    # PyElastica stores directors as rows (d1, d2, d3 = t) per element: Q[j, :, i].
+    directors = np.transpose(frames[:, :, [1, 2, 0]], (2, 1, 0))
+    return nodes.T.copy(), directors.copy()
+
+
+def solve_elastica(
+    case: RodCase,
+    n_elements: int = 50,
+    *,
+    n_output: int = 201,
+    shear_factor: float = 20.0,
+    cfl: float = 0.7,
+    damping_ratio: float = 1.0,
+    settle_tol: float = 1e-6,
+    max_time_s: float | None = None,
+    initial: Literal["auto", "straight", "rest"] = "auto",
+    progress: bool = False,
+) -> RodResult:
+    """Relax `case` to equilibrium with PyElastica; return the centerline (n_output, 3) in m.
+
+    `damping_ratio` scales the damping constant 2 omega1; `settle_tol` is the stopping tolerance
+    as a fraction of L; `max_time_s` (simulated s) defaults to 60 / omega1; `initial` "auto"
+    starts from the discrete rest shape when the case has rest curvature or twist, else straight.
+    """
+    check_range("n_elements", n_elements, 4, None)
+    check_range("n_output", n_output, 2, None)
+    check_range("shear_factor", shear_factor, 1.0, None)
+    check_range("cfl", cfl, 0.0, 1.0, low_open=True)
+    check_range("damping_ratio", damping_ratio, 0.0, None, low_open=True)
+    check_range("settle_tol", settle_tol, 0.0, None, low_open=True)
+    check_choice("initial", initial, ("auto", "straight", "rest"))
+    curved = any(case.intrinsic_curvature) or case.intrinsic_twist != 0.0
+    start_shape = ("rest" if curved else "straight") if initial == "auto" else initial
+    omega1 = slowest_frequency(case)
+    if max_time_s is None:
+        max_time_s = 60.0 / omega1
+    check_range("max_time_s", max_time_s, 0.0, None, low_open=True)
+    dt = stable_time_step(case, n_elements, shear_factor, cfl)
+    nu = 2.0 * omega1 * damping_ratio
+    check_time = 0.5 / omega1
+    steps_per_check = max(1, int(round(check_time / dt)))
+
+    wall_start = time.perf_counter()
+    sim = _Simulator()
+    rod = _build_rod(case, n_elements, shear_factor, start_shape)
+    sim.append(rod)
+    sim.constrain(rod).using(
+        OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,)
+    )
+    if any(case.gravity):
+        sim.add_forcing_to(rod).using(
+            GravityForces, acc_gravity=np.asarray(case.gravity, dtype=float)
+        )
+    sim.dampen(rod).using(AnalyticalLinearDamper, uniform_damping_constant=nu, time_step=dt)
+    sim.finalize()
+    stepper = PositionVerlet()
+
+    tol = settle_tol * case.length
+    sim_time, steps, quiet_checks = 0.0, 0, 0
+    previous = rod.position_collection.copy()
+    converged = False
+    change = speed_measure = math.inf
+    bar = tqdm(total=max_time_s, unit="sim s", disable=not progress, desc=f"pyelastica {case.name}")
+    while sim_time < max_time_s:
+        for _ in range(steps_per_check):
+            sim_time = float(stepper.step(sim, sim_time, dt))
+        steps += steps_per_check
+        bar.update(steps_per_check * dt)
+        current = rod.position_collection
+        if not np.all(np.isfinite(current)):
+            bar.close()
+            raise ParameterError(
+                f"PyElastica diverged on case {case.name!r} at t = {sim_time:.4g} s with "
+                f"dt = {dt:.3g} s; reduce cfl = {cfl:g}"
+            )
+        change = float(np.max(np.linalg.norm(current - previous, axis=0)))
+        speed_measure = float(np.max(np.linalg.norm(rod.velocity_collection, axis=0))) / omega1
+        previous = current.copy()
+        quiet_checks = quiet_checks + 1 if max(change, speed_measure) < tol else 0
+        if quiet_checks >= 2:
+            converged = True
+            break
+    bar.close()
+    nodes = rod.position_collection.T
+    polyline = np.vstack([np.asarray(case.base_position), nodes[1:]])
+    centerline = resample_centerline(polyline, n_output)
+    wall = time.perf_counter() - wall_start
+    settings: dict[str, Any] = {
+        "case": case.name,
+        "n_elements": int(n_elements),
+        "dt_s": dt,
+        "shear_factor": shear_factor,
+        "damping_per_s": nu,
+        "initial": start_shape,
+        "steps": steps,
+        "sim_time_s": sim_time,
+        "converged": converged,
+        "last_change_m": change,
+        "last_speed_over_omega1_m": speed_measure,
+        "max_strain": float(np.max(np.abs(rod.sigma))),
+    }
+    return RodResult(centerline=centerline, engine=ENGINE_NAME, wall_time_s=wall, settings=settings)

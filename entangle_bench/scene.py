@@ -1,0 +1,179 @@
+"""Scene assembly: gripper + optional object + ground, with declared effects and numerics, compiled to MjModel."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from entangle_bench import effects as fx
+from entangle_bench.config import check_range
+from entangle_bench.gripper import Gripper, GripperParams, add_gripper, filament_positions
+from entangle_bench.presets import Numerics, get_preset
+
+
+@dataclass(frozen=True)
+class ContactParams:
+    """Contact material shared by all pairs (SI units)."""
+
+    friction: float = 1.0
+    """Sliding friction coefficient (silicone on rigid plastic is of order 1)."""
+    torsional_friction_m: float = 1e-4
+    rolling_friction_m: float = 1e-5
+    timeconst_s: float = 0.02
+    """Contact spring time constant (MuJoCo solref[0]); must be at least twice the timestep."""
+    dampratio: float = 1.0
+
+    def __post_init__(self) -> None:
+        check_range("contact.friction", self.friction, 0.0, 10.0)
+        check_range("contact.torsional_friction_m", self.torsional_friction_m, 0.0, 1.0)
+        check_range("contact.rolling_friction_m", self.rolling_friction_m, 0.0, 1.0)
+        check_range("contact.timeconst_s", self.timeconst_s, 0.0, 1.0, low_open=True)
+        check_range("contact.dampratio", self.dampratio, 0.0, 10.0, low_open=True)
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """Everything that defines a compiled scene except the initial poses."""
+
+    gripper: GripperParams = field(default_factory=GripperParams)
+    object_name: str | None = None
+    """Object from the object library, or None for the gripper alone in free air."""
+    object_params: Any = None
+    """The object's own parameter dataclass; None means its defaults."""
+    effects: fx.Effects = field(default_factory=fx.Effects)
+    contact: ContactParams = field(default_factory=ContactParams)
+    numerics: Numerics = field(default_factory=Numerics)
+
+
+def with_preset(config: SceneConfig, name: str) -> SceneConfig:
+    """Apply a named numerical preset: its numerics and its segment count per filament."""
+    preset = get_preset(name)
+    filament = dataclasses.replace(config.gripper.filament, n_segments=preset.n_segments)
+    gripper = dataclasses.replace(config.gripper, filament=filament)
+    return dataclasses.replace(config, gripper=gripper, numerics=preset.numerics)
+
+
+@dataclass
+class Scene:
+    """A compiled scene with its named parts."""
+
+    config: SceneConfig
+    model: mujoco.MjModel
+    gripper: Gripper
+    object_info: Any
+    filament_of_geom: np.ndarray
+    """(ngeom,) filament index of each geom, -1 for non-filament geoms."""
+    is_object_geom: np.ndarray
+    """(ngeom,) True for the object's geoms."""
+
+    @property
+    def object_body(self) -> int:
+        """Body id of the object, -1 if the scene has none."""
+        return self.model.body("object").id if self.object_info is not None else -1
+
+
+def build_scene(
+    config: SceneConfig,
+    hub_pos: tuple[float, float, float] = (0.0, 0.0, 0.5),
+    object_pos: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    object_quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0),
+) -> Scene:
+    """Assemble and compile the scene; invalid parameters raise before anything is compiled."""
+    contact = config.contact
+    check_range(
+        "contact.timeconst_s (relative to 2 * numerics.timestep_s)",
+        contact.timeconst_s,
+        2.0 * config.numerics.timestep_s,
+        None,
+    )
+    spec = mujoco.MjSpec()
+    spec.modelname = "entangle_bench"
+    config.numerics.apply(spec)
+    spec.worldbody.add_light(pos=(0, 0, 1.5), dir=(0, 0, -1))
+    spec.worldbody.add_geom(
+        name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(1.0, 1.0, 0.01), rgba=(0.8, 0.8, 0.8, 1)
+    )
+    gripper = add_gripper(
+        spec, config.gripper, hub_pos, twist_armature_scale=config.numerics.twist_armature_scale
+    )
+    info = None
+    if config.object_name is not None:
+        from entangle_bench import objects
+
+        info = objects.add_object(
+            spec, config.object_name, config.object_params, pos=object_pos, quat=object_quat
+        )
+    group: dict[str, int] = {"ground": fx.GROUND}
+    for handle in gripper.filaments:
+        group.update({g: fx.FILAMENT for g in handle.geom_names})
+    object_geoms = [g.name for g in spec.geoms if g.name.startswith("object")]
+    group.update({g: fx.OBJECT for g in object_geoms})
+    fx.apply_effects(
+        spec,
+        config.effects,
+        group,
+        [list(h.body_names) for h in gripper.filaments],
+        filament_positions(config.gripper),
+        config.gripper.filament.length_m + config.gripper.filament.outer_radius_m,
+    )
+    for geom in spec.geoms:
+        geom.friction = (contact.friction, contact.torsional_friction_m, contact.rolling_friction_m)
+        geom.solref = (contact.timeconst_s, contact.dampratio)
+    model = spec.compile()
+    gripper.bind(model)
+    filament_of_geom = np.full(model.ngeom, -1, dtype=int)
+    for handle in gripper.filaments:
+        for name in handle.geom_names:
+            filament_of_geom[model.geom(name).id] = handle.index
+    is_object_geom = np.zeros(model.ngeom, dtype=bool)
+    for name in object_geoms:
+        is_object_geom[model.geom(name).id] = True
+    return Scene(config, model, gripper, info, filament_of_geom, is_object_geom)
+
+
+def kinetic_energy(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """0.5 qvel^T M qvel, J (uses the mass matrix of the last step)."""
+    out = np.empty(model.nv)
+    mujoco.mj_mulM(model, data, out, data.qvel)
+    return 0.5 * float(data.qvel @ out)
+
+
+def step_until_rest(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    max_time_s: float,
+    speed_tol_m_s: float = 1e-4,
+    kinetic_damping: bool = False,
+) -> bool:
+    """Step until every body's linear speed stays below `speed_tol_m_s` for 0.2 s; True if so in `max_time_s`.
+
+    With `kinetic_damping` this is dynamic relaxation (Day 1965; Cundall 1976): whenever the kinetic energy
+    passes a peak, all velocities are zeroed, so every mode loses its energy within half a period and the
+    state walks to the nearest static equilibrium. Only for statics: it is not a dynamic simulation.
+    """
+    check_every = max(1, int(0.01 / model.opt.timestep))
+    start = data.time
+    last_ke = 0.0
+    calm_since = None
+    while data.time - start < max_time_s:
+        for _ in range(check_every):
+            mujoco.mj_step(model, data)
+            if kinetic_damping:
+                ke = kinetic_energy(model, data)
+                if ke < last_ke:
+                    data.qvel[:] = 0.0
+                    ke = 0.0
+                last_ke = ke
+        if not np.all(np.isfinite(data.qvel)):
+            return False
+        if np.max(np.abs(data.cvel[1:, 3:])) >= speed_tol_m_s:
+            calm_since = None
+        elif calm_since is None:
+            calm_since = data.time
+        elif data.time - calm_since >= 0.2:
+            return True
+    return False

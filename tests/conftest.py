@@ -1,0 +1,5 @@
+"""Shared test settings: headless plotting."""
+
+import os
+
+os.environ.setdefault("MPLBACKEND", "Agg")

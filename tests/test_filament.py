@@ -1,0 +1,112 @@
+"""Physics of one filament against closed-form answers."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from entangle_bench import effects as fx
+from entangle_bench.errors import ParameterError
+from entangle_bench.filament import REFERENCE_COIL_RADIUS_M, FilamentParams
+from entangle_bench.scene import step_until_rest
+from tests.helpers import STATICS, single_filament_scene
+
+
+def fit_circle_xz(points: np.ndarray) -> float:
+    """Least-squares (Kasa) circle radius of points in the x-z plane, m."""
+    a = np.c_[2 * points[:, 0], 2 * points[:, 2], np.ones(len(points))]
+    b = points[:, 0] ** 2 + points[:, 2] ** 2
+    cx, cz, c = np.linalg.lstsq(a, b, rcond=None)[0]
+    return math.sqrt(c + cx**2 + cz**2)
+
+
+def settled_centerline(scene, pressure_pa=0.0, gravity=None, max_time_s=20.0):
+    model, data = scene.model, mujoco.MjData(scene.model)
+    if gravity is not None:
+        model.opt.gravity[:] = gravity
+    scene.gripper.set_pressure(model, pressure_pa, np.array([0.0]))
+    assert step_until_rest(model, data, max_time_s, 1e-5, kinetic_damping=True), "no rest"
+    return scene.gripper.centerlines(model, data)[0]
+
+
+def test_default_calibration_gives_stated_coil_radius():
+    params = FilamentParams()
+    assert params.curvature_per_m(172e3) == pytest.approx(1.0 / REFERENCE_COIL_RADIUS_M)
+    # The law is linear in pressure and in eps, and falls with r and E.
+    assert params.curvature_per_m(86e3) == pytest.approx(0.5 / REFERENCE_COIL_RADIUS_M)
+    stiffer = FilamentParams(youngs_modulus_pa=2e6)
+    assert stiffer.curvature_per_m(172e3) == pytest.approx(0.5 / REFERENCE_COIL_RADIUS_M)
+
+
+def test_actuated_coil_radius_matches_curvature():
+    """Zero gravity, no contact: the coil's fitted radius is 1/kappa within 2 % (40 segments)."""
+    scene = single_filament_scene(n_segments=40)
+    kappa = scene.config.gripper.filament.curvature_per_m(172e3)
+    line = settled_centerline(scene, pressure_pa=172e3)
+    assert np.ptp(line[:, 1]) < 1e-9  # stays in its bending plane
+    assert fit_circle_xz(line) * kappa == pytest.approx(1.0, abs=0.02)
+
+
+def test_stiff_cantilever_matches_small_deflection_formula():
+    """Sideways gravity on a stiff clamped rod: tip drop rho A g L^4 / (8 EI) within 5 %."""
+    scene = single_filament_scene(effects=fx.NO_CONTACT, n_segments=20, youngs_modulus_pa=2e10)
+    params = scene.config.gripper.filament
+    line = settled_centerline(scene, gravity=(-9.81, 0.0, 0.0))
+    expected = params.linear_density_kg_m * 9.81 * params.length_m**4 / (
+        8 * params.bending_stiffness_nm2
+    )
+    assert expected / params.length_m < 0.03  # small-deflection regime
+    assert -line[-1, 0] == pytest.approx(expected, rel=0.05)
+
+
+def test_doubling_segments_changes_equilibrium_little():
+    """Actuated filament hanging under gravity: 16 -> 32 segments moves the centerline < 2 % of L."""
+    lines = []
+    for n in (16, 32):
+        scene = single_filament_scene(effects=fx.NO_CONTACT, n_segments=n)
+        lines.append(settled_centerline(scene, pressure_pa=60e3))
+    coarse, fine = lines
+    # compare at the coarse vertices: every other vertex of the fine line
+    err = np.max(np.linalg.norm(coarse - fine[::2], axis=1)) / 0.3
+    assert err < 0.02
+
+
+def test_energy_does_not_grow_with_damping():
+    """Released from a bent pose with constant rest shape, mechanical energy never rises."""
+    scene = single_filament_scene(
+        effects=fx.NO_CONTACT,
+        numerics=STATICS,
+        n_segments=16,
+    )
+    model, data = scene.model, mujoco.MjData(scene.model)
+    model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+    scene.gripper.set_pressure(model, 172e3, np.array([0.0]))
+    mujoco.mj_step(model, data, 200)  # bend the rod under actuation
+    scene.gripper.set_pressure(model, 0.0, np.array([0.0]))  # release: rest shape is straight
+    energies, kinetic = [], []
+    for _ in range(300):
+        mujoco.mj_step(model, data, 5)
+        energies.append(data.energy.sum())
+        kinetic.append(data.energy[1])
+    energies = np.array(energies)
+    assert max(kinetic) > 1e-6  # the rod really swings back
+    assert energies[0] - energies[-1] > 10 * max(kinetic[-1], 1e-9)  # and loses energy
+    assert np.all(np.diff(energies) <= 1e-9 * abs(energies[0]))
+
+
+@pytest.mark.parametrize(
+    "field, value, fragment",
+    [
+        ("length_m", 0.0, "filament.length_m"),
+        ("length_m", -1.0, "filament.length_m"),
+        ("n_segments", 1, "filament.n_segments"),
+        ("channel_eccentricity", 1.5, "filament.channel_eccentricity"),
+        ("channel_radius_ratio", 1.0, "filament.channel_radius_ratio"),
+        ("youngs_modulus_pa", 0.0, "filament.youngs_modulus_pa"),
+    ],
+)
+def test_bad_filament_parameters_name_the_parameter(field, value, fragment):
+    with pytest.raises(ParameterError, match=fragment) as info:
+        FilamentParams(**{field: value})
+    assert "allowed range" in str(info.value) or "integer" in str(info.value)

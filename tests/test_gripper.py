@@ -1,0 +1,80 @@
+"""Gripper layout, validation and the default array hanging in air."""
+
+import dataclasses
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from entangle_bench.errors import ParameterError
+from entangle_bench.gripper import GripperParams, bending_angles, filament_positions
+from entangle_bench.scene import SceneConfig, build_scene, with_preset
+
+
+def test_reference_layout():
+    params = GripperParams()
+    pts = filament_positions(params)
+    radii = np.sort(np.linalg.norm(pts, axis=1))
+    assert params.n_filaments == 12
+    assert np.allclose(radii[:4], 0.0125) and np.allclose(radii[4:], 0.025)
+    # phi_G = r^2 / d^2: the outer ring's spacing is 2 R sin(pi/8); inner-ring filaments are nearer
+    d_outer = 0.05 * math.sin(math.pi / 8)
+    assert params.areal_density > (0.7e-3 / d_outer) ** 2 * 0.5
+
+
+def test_hex_layout_and_density():
+    params = GripperParams(layout="hex", hex_spacing_m=0.01, hex_rings=2)
+    assert params.n_filaments == 19
+    assert params.areal_density == pytest.approx((0.7e-3 / 0.01) ** 2)
+
+
+def test_overlapping_filaments_are_rejected():
+    with pytest.raises(ParameterError, match="overlap"):
+        GripperParams(layout="hex", hex_spacing_m=0.001)
+
+
+def test_bad_layouts_name_the_parameter():
+    with pytest.raises(ParameterError, match="ring_counts"):
+        GripperParams(ring_diameters_m=(0.05,), ring_counts=(8, 4))
+    with pytest.raises(ParameterError, match="gripper.layout"):
+        GripperParams(layout="spiral")
+    with pytest.raises(ParameterError, match="hub_radius_m"):
+        GripperParams(ring_diameters_m=(0.2,), ring_counts=(8,))
+
+
+def test_random_bending_planes_are_seeded():
+    params = GripperParams()
+    a = bending_angles(params, np.random.default_rng(3))
+    b = bending_angles(params, np.random.default_rng(3))
+    c = bending_angles(params, np.random.default_rng(4))
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    with pytest.raises(ParameterError, match="seeded"):
+        bending_angles(params, None)
+
+
+@pytest.mark.parametrize("preset", ["fast", "balanced"])
+def test_default_array_actuates_in_air_without_warnings(preset):
+    """12 filaments, 3 s hanging in air with a pressure ramp: finite state, no MuJoCo warnings, curled."""
+    scene = build_scene(with_preset(SceneConfig(), preset))
+    model, data = scene.model, mujoco.MjData(scene.model)
+    angles = bending_angles(scene.config.gripper, np.random.default_rng(0))
+    mujoco.mj_kinematics(model, data)
+    straight = scene.gripper.centerlines(model, data)
+    while data.time < 3.0:
+        scene.gripper.set_pressure(model, 172e3 * min(1.0, data.time / 1.0), angles)
+        mujoco.mj_step(model, data, 10)
+    assert np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
+    assert all(w.number == 0 for w in data.warning)
+    curled = scene.gripper.centerlines(model, data)
+    # Gravity dominates (L / l_g ~ 13): roots hang straight, the tips curl, shortening every filament.
+    span = np.linalg.norm(curled[:, -1] - curled[:, 0], axis=1)
+    assert np.all(span < 0.93 * np.linalg.norm(straight[:, -1] - straight[:, 0], axis=1))
+
+
+def test_preset_sets_segment_count():
+    config = with_preset(SceneConfig(), "fast")
+    assert config.gripper.filament.n_segments == 12
+    scene = build_scene(config)
+    assert scene.model.nbody == 1 + 1 + 12 * 12 + 0
+    assert dataclasses.replace(config.gripper.filament, n_segments=16).n_segments == 16
