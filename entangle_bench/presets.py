@@ -32,6 +32,10 @@ class Numerics:
     iterations: int = 30
     tolerance: float = 1e-6
     ls_iterations: int = 20
+    impratio: float = 1.0
+    """Ratio of frictional to normal constraint impedance; > 1 reduces creep of soft frictional contacts."""
+    noslip_iterations: int = 0
+    """Post-processing iterations of MuJoCo's noslip solver that remove frictional creep (0: off)."""
     twist_armature_scale: float = 1000.0
     """Armature on each filament twist DOF as a multiple of the segment's spin inertia (statics unchanged)."""
 
@@ -42,6 +46,8 @@ class Numerics:
         check_range("numerics.iterations", self.iterations, 1, 10000)
         check_range("numerics.tolerance", self.tolerance, 0.0, 1.0)
         check_range("numerics.ls_iterations", self.ls_iterations, 1, 1000)
+        check_range("numerics.impratio", self.impratio, 1.0, 1000.0)
+        check_range("numerics.noslip_iterations", self.noslip_iterations, 0, 1000)
         check_range("numerics.twist_armature_scale", self.twist_armature_scale, 1.0, 1e6)
 
     def apply(self, spec: mujoco.MjSpec) -> None:
@@ -62,6 +68,8 @@ class Numerics:
         opt.iterations = self.iterations
         opt.tolerance = self.tolerance
         opt.ls_iterations = self.ls_iterations
+        opt.impratio = self.impratio
+        opt.noslip_iterations = self.noslip_iterations
         if not self.euler_implicit_damping:
             opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
 

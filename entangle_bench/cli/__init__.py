@@ -13,7 +13,10 @@ from entangle_bench.errors import EntangleBenchError
 
 # Subcommand name -> module under entangle_bench.cli exposing `add_parser(subparsers)` and `run(args)`.
 SUBCOMMANDS: dict[str, str] = {
-    "demo": "demo",
+    "acn": "acn",
+    "run": "run",
+    "tasks": "tasks",
+    "objects": "objects",
 }
 
 

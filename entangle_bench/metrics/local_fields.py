@@ -8,17 +8,18 @@ given diameter (segment-sphere intersection), and two numbers are recorded:
 - local filament count: the number of distinct filaments entering the sphere (spatial density;
   at least 1, the sample's own filament).
 The default 20 mm diameter follows the reference work (Becker et al., PNAS 119:e2209819119, 2022,
-Fig. 2D-E). Pair terms use the Klenin & Langowski solid angle (`acn.segment_pair_solid_angle`).
+Fig. 2D-F). Pair terms use the exact segment-pair solid angle of `acn`.
 """
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
 from entangle_bench.config import check_range
-from entangle_bench.metrics.acn import CurvesLike, clean_curves, segment_pair_solid_angle
+from entangle_bench.metrics.acn import CurvesLike, clean_curves, segment_pair_abs_solid_angle
 
 # Sample-segment clipping tests per block, and segment pairs per solid-angle batch.
 _CLIP_ENTRIES_PER_BLOCK = 1 << 18
@@ -147,18 +148,26 @@ def local_fields(
         local_count += np.bincount(keys // n_curves, minlength=n_samples)
         piece_a = start[seg] + t_lo[:, None] * direction[seg]
         piece_b = start[seg] + t_hi[:, None] * direction[seg]
-        first, second = _pairs_within_groups(sample)
-        far = (seg_curve[seg[first]] != seg_curve[seg[second]]) | (
-            np.abs(seg_index[seg[first]] - seg_index[seg[second]]) > 1
-        )
-        first, second = first[far], second[far]
-        for p0 in range(0, len(first), _PAIRS_PER_BATCH):
-            i = first[p0 : p0 + _PAIRS_PER_BATCH]
-            j = second[p0 : p0 + _PAIRS_PER_BATCH]
-            omega = segment_pair_solid_angle(
-                piece_a[i], piece_b[i], piece_a[j], piece_b[j], signed=False
+        # Pair up the pieces of each sphere, a few spheres at a time to bound memory.
+        hits = np.bincount(sample - s0, minlength=s1 - s0)
+        hit_start = np.r_[0, np.cumsum(hits)]
+        pairs_before = np.cumsum(hits * (hits - 1) // 2) - hits * (hits - 1) // 2
+        batch_of_sample = pairs_before // _PAIRS_PER_BATCH
+        cuts = np.r_[0, np.flatnonzero(np.diff(batch_of_sample)) + 1, s1 - s0]
+        for a, b in itertools.pairwise(cuts):
+            h0, h1 = hit_start[a], hit_start[b]
+            first, second = _pairs_within_groups(sample[h0:h1])
+            first += h0
+            second += h0
+            keep = (seg_curve[seg[first]] != seg_curve[seg[second]]) | (
+                np.abs(seg_index[seg[first]] - seg_index[seg[second]]) > 1
             )
-            local_acn += np.bincount(sample[i], weights=omega, minlength=n_samples)
+            first, second = first[keep], second[keep]
+            for p0 in range(0, len(first), _PAIRS_PER_BATCH):
+                i = first[p0 : p0 + _PAIRS_PER_BATCH]
+                j = second[p0 : p0 + _PAIRS_PER_BATCH]
+                omega = segment_pair_abs_solid_angle(piece_a[i], piece_b[i], piece_a[j], piece_b[j])
+                local_acn += np.bincount(sample[i], weights=omega, minlength=n_samples)
     return LocalFields(
         diameter_m=float(diameter_m),
         points=centres,

@@ -17,7 +17,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 
 from entangle_bench.errors import ParameterError
 
@@ -173,11 +173,13 @@ class Capsule:
 
     def contains(self, pts: np.ndarray, solid: bool = True) -> np.ndarray:
         """Whether each point (n, 3) lies inside."""
-        p0, h, rot = self._axis
-        a = rot[:, 2]
+        p0 = np.asarray(self.p0, float)
+        a = np.subtract(self.p1, p0)
+        h2 = float(a @ a)
         d = pts - p0
-        t = np.clip(d @ a, 0.0, h)
-        return np.sum((d - t[:, None] * a) ** 2, axis=1) <= self.radius**2
+        t = np.clip(d @ a, 0.0, h2) / h2
+        e = d - t[:, None] * a
+        return np.einsum("ij,ij->i", e, e) <= self.radius**2
 
     def sample(self, n: int, rng: np.random.Generator, solid: bool = True) -> np.ndarray:
         """`n` points uniformly distributed inside (rejection in the local bounding box)."""
@@ -417,8 +419,11 @@ class ConvexMesh:
         v = np.asarray(self.vertices, float)
         if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4:
             raise ParameterError(f"convex part {self.name!r} needs at least 4 vertices (n, 3)")
-        hull = ConvexHull(v)
-        if hull.volume <= 0:
+        try:
+            hull = ConvexHull(v)
+        except QhullError:
+            hull = None
+        if hull is None or hull.volume <= 0:
             raise ParameterError(f"convex part {self.name!r} is flat (zero volume)")
         object.__setattr__(self, "vertices", v[hull.vertices])
         object.__setattr__(self, "_hull", ConvexHull(v[hull.vertices]))
@@ -479,7 +484,7 @@ class ConvexMesh:
 Part = Capsule | Cylinder | Sphere | Box | ConvexMesh
 
 
-def union_moments(parts: Sequence[Part], solid: bool = True, samples_per_part: int = 20000,
+def union_moments(parts: Sequence[Part], solid: bool = True, samples_per_part: int = 10000,
                   seed: int = 0) -> Moments:
     """Volume moments of the union of `parts`: exact per-part moments minus a Monte Carlo overlap term.
 
@@ -500,7 +505,8 @@ def union_moments(parts: Sequence[Part], solid: bool = True, samples_per_part: i
         pts = part.sample(samples_per_part, rng, solid)
         count = np.ones(len(pts))
         for j in others:
-            count += parts[j].contains(pts, solid)
+            near = np.flatnonzero(np.all((pts >= boxes[j][0]) & (pts <= boxes[j][1]), axis=1))
+            count[near] += parts[j].contains(pts[near], solid)
         w = part.volume(solid) / len(pts) * (1.0 - 1.0 / count)
         if not np.any(w):
             continue

@@ -44,10 +44,10 @@ class CoacdSettings:
     number of parts, `max_ch_vertex` the vertices per part (hulls are decimated to it).
     """
 
-    threshold: float = 0.06
-    max_convex_hull: int = 24
+    threshold: float = 0.05
+    max_convex_hull: int = 48
     preprocess_resolution: int = 50
-    resolution: int = 1000
+    resolution: int = 2000
     mcts_nodes: int = 15
     mcts_iterations: int = 60
     mcts_max_depth: int = 2
@@ -134,24 +134,24 @@ def repair_mesh(mesh: trimesh.Trimesh, source: str) -> tuple[trimesh.Trimesh, li
     """Return a watertight version of `mesh` and notes on what was changed.
 
     Keeps the closed, outward bodies; drops flat fragments (|volume| < 0.1 % of the largest body),
-    open pieces that hole filling cannot close, and inward-facing closed shells (cavities).
-    Raises MeshError when nothing closed remains.
+    open pieces and inward-facing closed shells (cavities, which CoACD would fill anyway). Holes
+    are not filled. Raises MeshError when no closed body remains.
     """
     if mesh.is_volume:
         return mesh, []
     notes: list[str] = []
-    bodies = mesh.split(only_watertight=False)
-    largest = max(abs(float(b.volume)) for b in bodies)
+    bodies = mesh.split(only_watertight=False, repair=False)  # repair=True needs networkx
+    with np.errstate(invalid="ignore", divide="ignore"):  # flat fragments have zero volume
+        volumes = [float(b.volume) for b in bodies]
+    largest = max(abs(v) for v in volumes)
     kept: list[trimesh.Trimesh] = []
     fragments = open_pieces = cavities = 0
-    for body in bodies:
-        if not body.is_watertight:
-            trimesh.repair.fill_holes(body)
+    for body, volume in zip(bodies, volumes):
         if not body.is_watertight:
             open_pieces += 1
-        elif abs(float(body.volume)) < 1e-3 * largest:
+        elif abs(volume) < 1e-3 * largest:
             fragments += 1
-        elif body.volume < 0:
+        elif volume < 0:
             cavities += 1
         else:
             kept.append(body)
@@ -160,7 +160,7 @@ def repair_mesh(mesh: trimesh.Trimesh, source: str) -> tuple[trimesh.Trimesh, li
     if cavities:
         notes.append(f"dropped {cavities} inward-facing shell(s) (cavities)")
     if open_pieces:
-        notes.append(f"dropped {open_pieces} open piece(s) that hole filling could not close")
+        notes.append(f"dropped {open_pieces} open piece(s)")
     if not kept:
         open_edges = int(np.sum(np.bincount(mesh.edges_unique_inverse) == 1))
         raise MeshError(
@@ -168,7 +168,9 @@ def repair_mesh(mesh: trimesh.Trimesh, source: str) -> tuple[trimesh.Trimesh, li
             f"{open_edges} open edge(s)); close it in a mesh editor")
     repaired = kept[0] if len(kept) == 1 else trimesh.util.concatenate(kept)
     if not repaired.is_volume:
-        raise MeshError(f"mesh {source}: the repaired mesh is still not a closed volume")
+        raise MeshError(f"mesh {source}: the repaired mesh is still not a closed volume "
+                        f"(consistent winding: {repaired.is_winding_consistent}); fix it in a "
+                        f"mesh editor")
     return repaired, notes
 
 
@@ -192,9 +194,10 @@ def load_mesh(path: str | os.PathLike, scale: float = 1.0) -> tuple[trimesh.Trim
 
 @dataclasses.dataclass(frozen=True)
 class Decomposition:
-    """Convex parts of a mesh: vertices (m) per part, the cache file and whether it was a hit."""
+    """Convex parts of a mesh as (vertices (m), triangle faces) pairs, the cache file, whether it was
+    a cache hit and how long CoACD took (s)."""
 
-    parts: tuple[np.ndarray, ...]
+    parts: tuple[tuple[np.ndarray, np.ndarray], ...]
     key: str
     path: Path
     from_cache: bool
@@ -210,32 +213,37 @@ def cache_key(mesh: trimesh.Trimesh, settings: CoacdSettings) -> str:
     return h.hexdigest()
 
 
-def _read_cache(path: Path) -> tuple[tuple[np.ndarray, ...], float] | None:
+def _read_cache(path: Path) -> tuple[tuple[tuple[np.ndarray, np.ndarray], ...], float] | None:
     """Parts and decomposition time stored in a cache file, or None when absent or unreadable."""
     if not path.is_file():
         return None
     try:
         with np.load(path) as data:
-            verts = data["vertices"]
-            offsets = data["offsets"]
+            verts, faces = data["vertices"], data["faces"]
+            v_off, f_off = data["vertex_offsets"], data["face_offsets"]
             seconds = float(data["seconds"])
     except (OSError, KeyError, ValueError, zipfile.BadZipFile):
         return None
-    return tuple(verts[a:b] for a, b in zip(offsets[:-1], offsets[1:])), seconds
+    parts = tuple((verts[v_off[i]:v_off[i + 1]], faces[f_off[i]:f_off[i + 1]])
+                  for i in range(len(v_off) - 1))
+    return parts, seconds
 
 
-def _write_cache(path: Path, parts: typing.Sequence[np.ndarray], seconds: float,
-                 settings: CoacdSettings) -> None:
+def _write_cache(path: Path, parts: typing.Sequence[tuple[np.ndarray, np.ndarray]],
+                 seconds: float, settings: CoacdSettings) -> None:
     """Write parts atomically (temporary file in the same folder, then os.replace)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    offsets = np.cumsum([0] + [len(p) for p in parts])
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as fh:
-            np.savez_compressed(fh, vertices=np.concatenate(parts).astype("<f8"), offsets=offsets,
+            np.savez_compressed(fh, vertices=np.concatenate([v for v, _ in parts]).astype("<f8"),
+                                faces=np.concatenate([f for _, f in parts]).astype("<i4"),
+                                vertex_offsets=np.cumsum([0] + [len(v) for v, _ in parts]),
+                                face_offsets=np.cumsum([0] + [len(f) for _, f in parts]),
                                 seconds=np.float64(seconds),
                                 settings=json.dumps(dataclasses.asdict(settings)),
                                 coacd_version=importlib.metadata.version("coacd"))
+        os.chmod(tmp, 0o644)  # mkstemp makes 0600; cache files are shared assets
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -249,7 +257,7 @@ def _run_with_ticker(label: str, work: typing.Callable[[], typing.Any]) -> typin
     done = threading.Event()
 
     def tick() -> None:
-        while not done.wait(0.5):
+        while not done.wait(1.0):
             bar.refresh()
 
     thread = threading.Thread(target=tick, daemon=True)
@@ -284,11 +292,11 @@ def decompose(mesh: trimesh.Trimesh, settings: CoacdSettings = CoacdSettings(),
         raw = coacd.run_coacd(coacd_mesh, **settings.kwargs())
     seconds = time.perf_counter() - start
     parts = []
-    for verts, _faces in raw:
+    for verts, faces in raw:
         v = np.asarray(verts, float)
         try:
             if len(v) >= 4 and ConvexHull(v).volume > 0:
-                parts.append(v)
+                parts.append((v, np.asarray(faces, np.int32)))
         except QhullError:
             continue  # a flat sliver: no volume, nothing to collide with
     if not parts:
@@ -351,7 +359,7 @@ def build_mesh_object(p: MeshObjectParams, progress: bool = False) -> Shape:
     if p.rest_pose == "stable":
         rot = stable_rotation(np.asarray(mesh.vertices), moments.center)
     parts = tuple(ConvexMesh(f"part{i:02d}", v @ rot.T)
-                  for i, v in enumerate(decomposition.parts))
+                  for i, (v, _) in enumerate(decomposition.parts))
     hull = np.asarray(mesh.vertices) @ rot.T
     extent = np.ptp(hull, axis=0)
     mass = p.mass_kg if p.mass_kg is not None else p.density_kg_m3 * moments.volume

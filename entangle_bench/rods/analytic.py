@@ -13,7 +13,7 @@
 * `kirchhoff_centerline`: the general 3D static Kirchhoff rod with the same load,
   R' = R [Omega]x, x' = R e1, m' = -x' x n, m = R C (Omega - Omega0), C = diag(G J, E I, E I),
   n(s) = rho A g (L - s), R(0) = R0, x(0) = x0, m(L) = 0 (Antman, ch. 8), again by collocation,
-  continued in the gravity magnitude from the exact zero-gravity shape.
+  continued from the straight rod: first in gravity, then in the rest curvature.
 
 Frames are 3x3 matrices whose columns are (t, d1, d2) in world coordinates (see `case.py`).
 """
@@ -155,30 +155,41 @@ def planar_plane(case: RodCase) -> tuple[np.ndarray, float, float, float] | None
     return e_y, float(bend @ e_y), float(g @ t), float(g @ e_y)
 
 
-def _continuation(solve_at, guess_x: np.ndarray, guess_y: np.ndarray, first_step: float):
-    """Solve for load factor 1 by continuation from 0; `solve_at(lam, x, y)` returns a BVP result.
+def _ramp(solve_at, stage: str, x: np.ndarray, y: np.ndarray, first_step: float):
+    """Continue `solve_at(lam, x, y)` (a solve_bvp result) from lam = 0 to 1; return (x, y, sol).
 
     The step starts at `first_step`, doubles after each success and shrinks 4x after a failure.
     """
-    lam, step = 0.0, first_step
-    x, y = guess_x, guess_y
+    lam, step, sol = 0.0, first_step, None
     while lam < 1.0:
         trial = min(1.0, lam + step)
         result = solve_at(trial, x, y)
         if result.success:
-            lam, x, y = trial, result.x, result.y
+            lam, x, y, sol = trial, result.x, result.y, result.sol
             step = min(1.0, 2.0 * step)
-            final = result
         else:
             step /= 4.0
             if step < 1e-6:
-                raise ParameterError(f"elastica continuation stalled at load factor {lam:.4g}")
-    return final
+                raise ParameterError(f"elastica continuation in {stage} stalled at {lam:.4g}")
+    return x, y, sol
 
 
-def _first_step(load: float) -> float:
-    """First continuation step: a dimensionless load rho A g L^3 / (E I) of about 1."""
-    return 1.0 if load <= 1.0 else 1.0 / load
+def _homotopy(solve_at, x: np.ndarray, y: np.ndarray, load: float, curvature: float):
+    """Solve `solve_at(g_scale, k_scale, x, y)` at (1, 1) starting from the straight rod at (0, 0).
+
+    Stage 1 ramps gravity on the straight-rest rod (a cantilever: one equilibrium branch); stage 2
+    ramps the rest curvature and twist at full gravity. The first steps keep the dimensionless
+    load rho A g L^3 / (E I) and the rest turning angle |Omega0| L near 1 per step.
+    """
+    sol = None
+    if load > 0.0:
+        x, y, sol = _ramp(lambda lam, a, b: solve_at(lam, 0.0, a, b), "gravity", x, y,
+                          min(1.0, 1.0 / load))
+    if curvature > 0.0 or sol is None:
+        g_scale = 1.0 if load > 0.0 else 0.0
+        x, y, sol = _ramp(lambda lam, a, b: solve_at(g_scale, lam, a, b), "rest curvature", x, y,
+                          min(1.0, 1.0 / max(curvature, 1e-300)))
+    return sol
 
 
 def planar_elastica_centerline(
@@ -186,8 +197,8 @@ def planar_elastica_centerline(
 ) -> np.ndarray:
     """Large-deflection planar elastica centerline (m,3) in m, uniform arclength, base to tip.
 
-    Needs a planar case (see `planar_plane`); solves in sigma = s/L for theta, theta', x, y with
-    the gravity load ramped from zero (continuation) by scipy.integrate.solve_bvp.
+    Needs a planar case (see `planar_plane`); solves in sigma = s/L for theta, theta', x/L, y/L
+    with scipy.integrate.solve_bvp, continued from the straight rod (see `_homotopy`).
     """
     check_range("m", m, 2, None)
     plane = planar_plane(case)
@@ -198,8 +209,9 @@ def planar_elastica_centerline(
     load = case.line_density * length**3 / case.bending_stiffness  # times g -> dimensionless
     k0 = kappa0 * length
 
-    def solve_at(lam: float, x: np.ndarray, y: np.ndarray):
-        ax, ay = lam * load * g_x, lam * load * g_y
+    def solve_at(g_scale: float, k_scale: float, x: np.ndarray, y: np.ndarray):
+        ax, ay = g_scale * load * g_x, g_scale * load * g_y
+        k_end = k_scale * k0
 
         def rhs(sig, z):
             theta, dtheta = z[0], z[1]
@@ -207,18 +219,14 @@ def planar_elastica_centerline(
             return np.vstack([dtheta, -torque, np.cos(theta), np.sin(theta)])
 
         def bc(za, zb):
-            return np.array([za[0], zb[1] - k0, za[2], za[3]])
+            return np.array([za[0], zb[1] - k_end, za[2], za[3]])
 
         return solve_bvp(rhs, bc, x, y, tol=tol, max_nodes=_MAX_NODES)
 
     sig = np.linspace(0.0, 1.0, 101)
-    theta = k0 * sig
-    if k0 != 0.0:
-        xs, ys = np.sin(theta) / k0, (1.0 - np.cos(theta)) / k0
-    else:
-        xs, ys = sig, np.zeros_like(sig)
-    guess = np.vstack([theta, np.full_like(sig, k0), xs, ys])
-    sol = _continuation(solve_at, sig, guess, _first_step(load * math.hypot(g_x, g_y))).sol
+    zeros = np.zeros_like(sig)
+    guess = np.vstack([zeros, zeros, sig, zeros])
+    sol = _homotopy(solve_at, sig, guess, load * math.hypot(g_x, g_y), abs(k0))
     z = sol(np.linspace(0.0, 1.0, int(m)))
     t = np.asarray(case.base_direction)
     return np.asarray(case.base_position) + length * (z[2][:, None] * t + z[3][:, None] * e_y)
@@ -228,7 +236,7 @@ def kirchhoff_centerline(case: RodCase, m: int = 201, tol: float = _BVP_TOL) -> 
     """3D Kirchhoff-rod equilibrium centerline (m,3) in m under gravity, uniform arclength.
 
     State in sigma = s/L: position x/L (3), frame R (9, row-major), moment m L / (E I) (3);
-    gravity is ramped from zero starting at the exact rest shape (continuation).
+    solved with scipy.integrate.solve_bvp, continued from the straight rod (see `_homotopy`).
     """
     check_range("m", m, 2, None)
     length = case.length
@@ -239,13 +247,14 @@ def kirchhoff_centerline(case: RodCase, m: int = 201, tol: float = _BVP_TOL) -> 
     r0 = case.base_frame
     x0 = np.asarray(case.base_position) / length
 
-    def solve_at(lam: float, x: np.ndarray, y: np.ndarray):
-        load = lam * gravity
+    def solve_at(g_scale: float, k_scale: float, x: np.ndarray, y: np.ndarray):
+        load = g_scale * gravity
+        rest = k_scale * omega0
 
         def rhs(sig, z):
             rot = z[3:12].T.reshape(-1, 3, 3)
             moment = z[12:15].T
-            omega = omega0 + compliance * np.einsum("nji,nj->ni", rot, moment)
+            omega = rest + compliance * np.einsum("nji,nj->ni", rot, moment)
             tangent = rot[:, :, 0]
             # R' = R [omega]x: each row a of R changes at the rate a x omega.
             d_rot = np.cross(rot, omega[:, None, :], axis=2)
@@ -258,9 +267,11 @@ def kirchhoff_centerline(case: RodCase, m: int = 201, tol: float = _BVP_TOL) -> 
         return solve_bvp(rhs, bc, x, y, tol=tol, max_nodes=_MAX_NODES)
 
     sig = np.linspace(0.0, 1.0, 101)
-    positions, frames = rest_pose(case, sig * length)
-    guess = np.vstack([(positions / length).T, frames.reshape(-1, 9).T, np.zeros((3, sig.size))])
-    sol = _continuation(solve_at, sig, guess, _first_step(np.linalg.norm(gravity))).sol
+    straight = x0[:, None] + r0[:, :1] * sig[None, :]
+    guess = np.vstack([straight, np.repeat(r0.reshape(9, 1), sig.size, axis=1),
+                       np.zeros((3, sig.size))])
+    sol = _homotopy(solve_at, sig, guess, float(np.linalg.norm(gravity)),
+                    float(np.linalg.norm(omega0)))
     return length * sol(np.linspace(0.0, 1.0, int(m)))[:3].T
 
 

@@ -61,6 +61,7 @@ _REQUIRED = (
 _OPTIONAL = ("description",)
 _BASE_KEYS = ("position", "direction", "normal")
 _PERPENDICULAR_TOL = 1e-6
+_ARCLENGTH_SUBDIVISION = 64  # fine polyline per spline interval for arclength (error ~1e-7 h)
 
 
 def _number(value: Any, where: str) -> float:
@@ -365,9 +366,9 @@ def resample_centerline(
 ) -> np.ndarray:
     """Resample a polyline (N, 3) in m to `m` points at uniform arclength, base to tip.
 
-    The curve is parametrised by cumulative chord length; "cubic" interpolates it with a
-    not-a-knot cubic spline (error O(h^4) on smooth curves, used by default), "linear" follows
-    the polyline itself.
+    "linear" places the points at uniform arclength along the polyline itself. "cubic" (default)
+    interpolates the points with a not-a-knot cubic spline in cumulative chord length (error
+    O(h^4) on smooth curves) and places the points at uniform arclength of that spline.
     """
     points = np.asarray(points, dtype=float)
     if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] < 2:
@@ -379,10 +380,15 @@ def resample_centerline(
     if np.any(chord <= 0.0):
         raise ParameterError("centerline has repeated consecutive points")
     u = np.concatenate([[0.0], np.cumsum(chord)])
-    targets = np.linspace(0.0, u[-1], int(m))
     if method == "linear" or points.shape[0] < 4:
+        targets = np.linspace(0.0, u[-1], int(m))
         return np.column_stack([np.interp(targets, u, points[:, k]) for k in range(3)])
-    return CubicSpline(u, points, axis=0)(targets)
+    spline = CubicSpline(u, points, axis=0)
+    fine_u = np.linspace(0.0, u[-1], _ARCLENGTH_SUBDIVISION * (points.shape[0] - 1) + 1)
+    fine = spline(fine_u)
+    arclength = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(fine, axis=0), axis=1))])
+    targets = np.linspace(0.0, arclength[-1], int(m))
+    return spline(np.interp(targets, arclength, fine_u))
 
 
 def centerline_error(a: np.ndarray, b: np.ndarray, length: float) -> tuple[float, float]:

@@ -13,6 +13,7 @@ from entangle_bench.metrics.acn import (
     acn_self,
     acn_total,
     clean_curves,
+    segment_pair_abs_solid_angle,
     segment_pair_solid_angle,
 )
 
@@ -166,6 +167,16 @@ def test_grid_kernel_agrees_with_klenin_langowski_pairs():
             assert matrix[x, y] == pytest.approx(omega.sum() / (2 * np.pi), rel=1e-10)
 
 
+def test_triangle_pair_kernel_agrees_with_klenin_langowski():
+    rng = np.random.default_rng(9)
+    p1, p2, p3, p4 = rng.normal(size=(4, 2000, 3))
+    fast = segment_pair_abs_solid_angle(p1, p2, p3, p4)
+    reference = segment_pair_solid_angle(p1, p2, p3, p4, signed=False)
+    np.testing.assert_allclose(fast, reference, rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(np.abs(segment_pair_solid_angle(p1, p2, p3, p4)), reference)
+    assert np.all(segment_pair_abs_solid_angle(p1, p2, p2, p4) == 0.0)  # shared end point
+
+
 def test_matrix_consistent_with_pair_self_and_total():
     rng = np.random.default_rng(4)
     curves = rng.normal(size=(4, 12, 3)).cumsum(axis=1)
@@ -201,9 +212,10 @@ def test_blocks_do_not_change_the_result(monkeypatch):
     rng = np.random.default_rng(8)
     curves = [rng.normal(size=(n, 3)).cumsum(axis=0) for n in (40, 3, 25)]
     reference = acn_matrix(curves)
-    monkeypatch.setattr(acn, "_ROWS_PER_BLOCK", 5)
-    monkeypatch.setattr(acn, "_COLS_PER_BLOCK", 7)
-    np.testing.assert_allclose(acn_matrix(curves), reference, rtol=1e-12)
+    for rows, cols in ((5, 7), (7, 3)):
+        monkeypatch.setattr(acn, "_ROWS_PER_BLOCK", rows)
+        monkeypatch.setattr(acn, "_COLS_PER_BLOCK", cols)
+        np.testing.assert_allclose(acn_matrix(curves), reference, rtol=1e-12)
     assert acn_pair(curves[0], curves[2]) == pytest.approx(reference[0, 2], rel=1e-12)
 
 

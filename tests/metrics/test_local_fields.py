@@ -58,6 +58,9 @@ def test_local_acn_matches_dense_resampling_of_the_sphere():
         center = fields.points[sample]
         pieces = clipped_by_dense_resampling(curves, center, 0.015)
         expected = acn_total(pieces)
+        # The resampled pieces are slightly shorter, and a sub-segment never subtends a larger
+        # solid angle, so the exact clipping can only be larger (by about 1 % here).
+        assert expected <= fields.local_acn[sample] + 1e-12
         assert fields.local_acn[sample] == pytest.approx(expected, rel=2e-2, abs=1e-3)
 
 

@@ -1,0 +1,138 @@
+"""Contact classification on small MuJoCo scenes: kinds, counts and force balance."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from entangle_bench.errors import ParameterError
+from entangle_bench.metrics.contacts import (
+    KINDS,
+    classify_geom_pairs,
+    contact_summary,
+    geom_classes,
+)
+
+GRAVITY = 9.81
+BOX_MASS, CAPSULE_MASS, RADIUS = 0.2, 0.01, 0.005
+
+
+def stack_scene(apart: bool = False) -> mujoco.MjModel:
+    """Box (the object) on the ground; filaments 0 and 1 lie on it along x, filament 2 crosses both
+    along y on top; filament 3 lies on the ground. With `apart`, everything floats far apart."""
+    spec = mujoco.MjSpec()
+    spec.option.timestep = 0.002
+    world = spec.worldbody
+    world.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.1])
+    lift = 1.0 if apart else 0.0
+    box = world.add_body(name="object", pos=[0, 0, 0.02 + lift])
+    box.add_freejoint()
+    box.add_geom(
+        name="object_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.05, 0.02], mass=BOX_MASS
+    )
+    placements = [
+        ([0, -0.02, 0.04 + RADIUS], [1, 0, 0]),
+        ([0, 0.02, 0.04 + RADIUS], [1, 0, 0]),
+        ([0, 0, 0.04 + 3 * RADIUS], [0, 1, 0]),
+        ([0.3, 0, RADIUS], [1, 0, 0]),
+    ]
+    for i, (pos, axis) in enumerate(placements):
+        offset = [0, 0, lift + 0.3 * (i + 1)] if apart else [0, 0, 0]
+        body = world.add_body(name=f"f{i:02d}_b000", pos=np.add(pos, offset))
+        body.add_freejoint()
+        half = 0.04 * np.asarray(axis, float)
+        body.add_geom(
+            name=f"f{i:02d}_g000",
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            size=[RADIUS, 0, 0],
+            fromto=np.r_[-half, half],
+            mass=CAPSULE_MASS,
+        )
+    return spec.compile()
+
+
+def test_geom_classes_parse_the_naming_conventions():
+    model = stack_scene()
+    filament_of_geom, is_object_geom = geom_classes(model)
+    names = [model.geom(g).name for g in range(model.ngeom)]
+    assert dict(zip(names, filament_of_geom.tolist())) == {
+        "ground": -1,
+        "object_box": -1,
+        "f00_g000": 0,
+        "f01_g000": 1,
+        "f02_g000": 2,
+        "f03_g000": 3,
+    }
+    assert [n for n, o in zip(names, is_object_geom) if o] == ["object_box"]
+
+
+def test_resting_stack_counts_and_force_balance():
+    model = stack_scene()
+    data = mujoco.MjData(model)
+    for _ in range(500):  # 1 s: the stack settles
+        mujoco.mj_step(model, data)
+    summary = contact_summary(model, data, *geom_classes(model))
+    counts = summary.counts
+    assert set(counts) == set(KINDS)
+    assert counts["filament-filament"] == 2  # filament 2 crosses 0 and 1
+    assert counts["object-ground"] == 4  # box corners
+    assert counts["filament-object"] >= 2 and counts["filament-ground"] >= 1
+    assert counts["filament-self"] == counts["other"] == 0
+    assert len(summary.points) == len(summary.kinds) == len(summary.normal_forces_n)
+    assert sum(counts.values()) == len(summary.kinds)
+    per_filament = summary.per_filament.tolist()
+    assert per_filament[0] + per_filament[1] == 2 + counts["filament-object"]
+    assert per_filament[2:] == [2, counts["filament-ground"]]
+    weight = CAPSULE_MASS * GRAVITY
+    # Static equilibrium: each support carries the weight of everything above it.
+    assert summary.normal_force_sum_n("filament-filament") == pytest.approx(weight, rel=0.02)
+    assert summary.normal_force_sum_n("filament-object") == pytest.approx(3 * weight, rel=0.02)
+    assert summary.normal_force_sum_n("filament-ground") == pytest.approx(weight, rel=0.02)
+    assert summary.normal_force_sum_n("object-ground") == pytest.approx(
+        BOX_MASS * GRAVITY + 3 * weight, rel=0.02
+    )
+    # Filament-filament contacts sit where the top capsule crosses the lower ones.
+    ff = summary.points[summary.kinds == "filament-filament"]
+    np.testing.assert_allclose(np.sort(ff[:, 1]), [-0.02, 0.02], atol=2e-3)
+    np.testing.assert_allclose(ff[:, 2], 0.04 + 2 * RADIUS, atol=1e-3)
+
+
+def test_far_apart_bodies_have_no_contacts():
+    model = stack_scene(apart=True)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    summary = contact_summary(model, data, *geom_classes(model))
+    assert all(v == 0 for v in summary.counts.values())
+    assert summary.points.shape == (0, 3)
+    assert summary.per_filament.tolist() == [0, 0, 0, 0]
+
+
+def test_classify_geom_pairs_covers_every_kind():
+    # geoms: 0 ground, 1 object, 2-3 filament 0, 4 filament 1, 5 other (e.g. hub)
+    filament_of_geom = np.array([-1, -1, 0, 0, 1, -1])
+    is_object_geom = np.array([False, True, False, False, False, False])
+    is_ground_geom = np.array([True, False, False, False, False, False])
+    pairs = [[2, 1], [4, 2], [2, 3], [0, 4], [1, 0], [5, 2], [5, 1]]
+    kinds = classify_geom_pairs(pairs, filament_of_geom, is_object_geom, is_ground_geom)
+    assert kinds.tolist() == [
+        "filament-object",
+        "filament-filament",
+        "filament-self",
+        "filament-ground",
+        "object-ground",
+        "other",
+        "other",
+    ]
+
+
+def test_rejects_misshapen_class_arrays():
+    model = stack_scene()
+    data = mujoco.MjData(model)
+    filament_of_geom, is_object_geom = geom_classes(model)
+    with pytest.raises(ParameterError, match="filament_of_geom"):
+        contact_summary(model, data, filament_of_geom[:-1], is_object_geom)
+    with pytest.raises(ParameterError, match="is_object_geom"):
+        contact_summary(model, data, filament_of_geom, is_object_geom.astype(int))
+    with pytest.raises(ParameterError, match="contact kind"):
+        contact_summary(model, data, filament_of_geom, is_object_geom).normal_force_sum_n("x")
