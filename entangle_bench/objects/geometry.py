@@ -27,7 +27,7 @@ _RIM_POINTS = 128
 
 @dataclasses.dataclass(frozen=True)
 class Moments:
-    """Volume moments of a solid: volume (m^3), first moment (m^4) and second moment S = int x x^T dV (m^5)."""
+    """Volume moments of a solid: volume (m^3), first moment (m^4), S = int x x^T dV (m^5)."""
 
     volume: float
     first: np.ndarray
@@ -46,7 +46,8 @@ class Moments:
         """Return the moments of nothing."""
         return Moments(0.0, np.zeros(3), np.zeros((3, 3)))
 
-    def transformed(self, rotation: np.ndarray, offset: Sequence[float], scale: float = 1.0) -> Moments:
+    def transformed(self, rotation: np.ndarray, offset: Sequence[float],
+                    scale: float = 1.0) -> Moments:
         """Return the moments of the solid mapped by x -> scale * R x + offset."""
         t = np.asarray(offset, float)
         r = np.asarray(rotation, float)
@@ -62,7 +63,7 @@ class Moments:
         return self.first / self.volume
 
     def inertia(self, mass_kg: float) -> np.ndarray:
-        """Inertia tensor (kg m^2) about the centroid for a uniform solid of total mass `mass_kg`."""
+        """Inertia tensor (kg m^2) about the centroid of a uniform solid of mass `mass_kg`."""
         c = self.center
         s_c = self.second / self.volume - np.outer(c, c)
         return mass_kg * (np.trace(s_c) * np.eye(3) - s_c)
@@ -105,26 +106,16 @@ def quat_to_matrix(quat: Sequence[float]) -> np.ndarray:
     ])
 
 
-def matrix_to_quat(rotation: np.ndarray) -> np.ndarray:
-    """Unit quaternion (w, x, y, z) of a rotation matrix."""
-    r = np.asarray(rotation, float)
-    w = math.sqrt(max(0.0, 1.0 + r[0, 0] + r[1, 1] + r[2, 2])) / 2
-    x = math.copysign(math.sqrt(max(0.0, 1.0 + r[0, 0] - r[1, 1] - r[2, 2])) / 2, r[2, 1] - r[1, 2])
-    y = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] + r[1, 1] - r[2, 2])) / 2, r[0, 2] - r[2, 0])
-    z = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] - r[1, 1] + r[2, 2])) / 2, r[1, 0] - r[0, 1])
-    q = np.array([w, x, y, z])
-    return q / np.linalg.norm(q)
-
-
 def mesh_moments(vertices: np.ndarray, faces: np.ndarray) -> Moments:
-    """Exact volume moments of a closed, outward-oriented triangle mesh (sum of signed tetrahedra)."""
+    """Exact volume moments of a closed, outward-oriented triangle mesh (signed tetrahedra)."""
     v = np.asarray(vertices, float)
     f = np.asarray(faces)
     o = v.mean(axis=0)
     a, b, c = v[f[:, 0]] - o, v[f[:, 1]] - o, v[f[:, 2]] - o
     det = np.einsum("ij,ij->i", a, np.cross(b, c))
     s = a + b + c
-    # tetrahedron (0, a, b, c): volume det/6, int x = det s/24, int x x^T = det (sum v v^T + s s^T)/120
+    # tetrahedron (0, a, b, c): volume det/6, int x = det s / 24,
+    # int x x^T = det (sum of v v^T over a, b, c + s s^T) / 120
     second = (np.einsum("n,ni,nj->ij", det, s, s) + np.einsum("n,ni,nj->ij", det, a, a)
               + np.einsum("n,ni,nj->ij", det, b, b) + np.einsum("n,ni,nj->ij", det, c, c)) / 120.0
     first = (det[:, None] * s).sum(0) / 24.0
@@ -261,7 +252,7 @@ class Cylinder:
         return q @ rot.T + p0
 
     def _rims(self, scale: float = 1.0) -> np.ndarray:
-        p0, h, rot = self._axis
+        p0, _, rot = self._axis
         ang = np.linspace(0, 2 * math.pi, _RIM_POINTS, endpoint=False)
         r = self.radius * scale
         circle = r * (np.outer(np.cos(ang), rot[:, 0]) + np.outer(np.sin(ang), rot[:, 1]))
@@ -274,8 +265,7 @@ class Cylinder:
 
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds (m), exact."""
-        p0, h, rot = self._axis
-        a = rot[:, 2]
+        a = self._axis[2][:, 2]
         ext = self.radius * np.sqrt(np.clip(1.0 - a * a, 0.0, None))
         ends = np.array([self.p0, self.p1], float)
         return np.array([ends.min(0) - ext, ends.max(0) + ext])
@@ -387,12 +377,14 @@ class Box:
     def sample(self, n: int, rng: np.random.Generator, solid: bool = True) -> np.ndarray:
         """`n` points uniformly distributed inside."""
         h = np.asarray(self.half)
-        return rng.uniform(-h, h, size=(n, 3)) @ quat_to_matrix(self.quat).T + np.asarray(self.center)
+        local = rng.uniform(-h, h, size=(n, 3))
+        return local @ quat_to_matrix(self.quat).T + np.asarray(self.center)
 
     def hull_points(self) -> np.ndarray:
         """The eight corners (m)."""
         signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
-        return (signs * np.asarray(self.half)) @ quat_to_matrix(self.quat).T + np.asarray(self.center)
+        local = signs * np.asarray(self.half)
+        return local @ quat_to_matrix(self.quat).T + np.asarray(self.center)
 
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds (m), exact."""
@@ -486,7 +478,7 @@ Part = Capsule | Cylinder | Sphere | Box | ConvexMesh
 
 def union_moments(parts: Sequence[Part], solid: bool = True, samples_per_part: int = 10000,
                   seed: int = 0) -> Moments:
-    """Volume moments of the union of `parts`: exact per-part moments minus a Monte Carlo overlap term.
+    """Volume moments of the union of `parts`: exact part moments minus a Monte Carlo overlap term.
 
     `solid` selects the region enclosed by each part (True) or its mass-carrying material (False,
     differs only for shelled spheres). The estimate is exact when no two parts overlap.
@@ -531,7 +523,8 @@ class Shape:
 
     `material` overrides the mass-carrying region's moments (default: union of the parts' material),
     `volume_m3` the enclosed volume (default: union of the solid parts) and `hull` the points whose
-    convex hull is the object's (default: the parts' hull points); mesh objects use their source mesh.
+    convex hull is the object's (default: the parts' hull points); mesh objects use the source
+    mesh for all three.
     `axis_xy` is the object's vertical axis in x, y (default: the centre of its bounding box).
     `notes` says what was repaired or approximated.
     """

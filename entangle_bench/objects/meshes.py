@@ -121,8 +121,8 @@ def check_scale(mesh: trimesh.Trimesh, source: str) -> None:
     if extent > MAX_EXTENT_M:
         raise MeshError(
             f"mesh {source} is {extent:.4g} m across, implausibly large for a graspable object "
-            f"(allowed {MIN_EXTENT_M:g}-{MAX_EXTENT_M:g} m); meshes must be in metres - if the file "
-            f"is in millimetres, scale it by 0.001")
+            f"(allowed {MIN_EXTENT_M:g}-{MAX_EXTENT_M:g} m); meshes must be in metres - if the "
+            f"file is in millimetres, scale it by 0.001")
     if extent < MIN_EXTENT_M:
         raise MeshError(
             f"mesh {source} is {extent:.4g} m across, implausibly small for a graspable object "
@@ -146,7 +146,7 @@ def repair_mesh(mesh: trimesh.Trimesh, source: str) -> tuple[trimesh.Trimesh, li
     largest = max(abs(v) for v in volumes)
     kept: list[trimesh.Trimesh] = []
     fragments = open_pieces = cavities = 0
-    for body, volume in zip(bodies, volumes):
+    for body, volume in zip(bodies, volumes, strict=True):
         if not body.is_watertight:
             open_pieces += 1
         elif abs(volume) < 1e-3 * largest:
@@ -194,8 +194,8 @@ def load_mesh(path: str | os.PathLike, scale: float = 1.0) -> tuple[trimesh.Trim
 
 @dataclasses.dataclass(frozen=True)
 class Decomposition:
-    """Convex parts of a mesh as (vertices (m), triangle faces) pairs, the cache file, whether it was
-    a cache hit and how long CoACD took (s)."""
+    """Convex parts of a mesh as (vertices (m), triangle faces) pairs, the cache file, whether
+    it was a cache hit and how long CoACD took (s)."""
 
     parts: tuple[tuple[np.ndarray, np.ndarray], ...]
     key: str
@@ -350,10 +350,10 @@ def stable_rotation(vertices: np.ndarray, center_of_mass: np.ndarray) -> np.ndar
     return _rotation_between(best[2], np.array([0.0, 0.0, -1.0]))
 
 
-def build_mesh_object(p: MeshObjectParams, progress: bool = False) -> Shape:
+def build_mesh_object(p: MeshObjectParams) -> Shape:
     """Shape of a mesh object: CoACD parts (cached) in its rest pose, mass from the source mesh."""
     mesh, notes = load_mesh(p.path, p.scale)
-    decomposition = decompose(mesh, p.coacd, p.cache_path, label=p.path.stem, progress=progress)
+    decomposition = decompose(mesh, p.coacd, p.cache_path, label=p.path.stem)
     moments = mesh_moments(mesh.vertices, mesh.faces)
     rot = np.eye(3)
     if p.rest_pose == "stable":

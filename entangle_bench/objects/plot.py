@@ -10,12 +10,12 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import trimesh  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import trimesh
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-from entangle_bench.objects.geometry import (  # noqa: E402
+from entangle_bench.objects.geometry import (
     Box,
     Capsule,
     ConvexMesh,
@@ -24,7 +24,7 @@ from entangle_bench.objects.geometry import (  # noqa: E402
     Sphere,
     quat_to_matrix,
 )
-from entangle_bench.objects.registry import build  # noqa: E402
+from entangle_bench.objects.registry import build
 
 
 def _segment_transform(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:

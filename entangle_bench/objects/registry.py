@@ -1,7 +1,8 @@
 """Registry of target objects by name and the single entry point that adds one to an MjSpec.
 
 Body convention: one free body `object` whose origin lies on the object's vertical axis (the trunk
-axis of trees, otherwise the centre of the bounding box in x and y) at its lowest point, so `pos=(x, y, 0)` sets it on the ground.
+axis of trees, otherwise the centre of the bounding box in x and y) at its lowest point, so
+`pos=(x, y, 0)` sets it on the ground.
 Mass and inertia are set explicitly from the union of the parts (see geometry.union_moments) or,
 for mesh objects, from the source mesh; geoms carry no mass of their own.
 """
@@ -48,8 +49,10 @@ _REGISTRY: dict[str, tuple[Any, str]] = {
     "random_tree": (trees.RandomTreeParams(), "seeded procedural tree (plant / coral stand-in)"),
     "sphere": (primitives.SphereParams(), "100 mm light hollow ball, 50 g"),
     "tennis_ball": (primitives.SphereParams(0.067, 0.058, 0.006), "tennis ball, 67 mm, 58 g"),
-    "cylinder_38": (primitives.CylinderParams(0.038, 0.10, 0.05), "upright cylinder, 38 mm x 100 mm"),
-    "cylinder_51": (primitives.CylinderParams(0.051, 0.10, 0.09), "upright cylinder, 51 mm x 100 mm"),
+    "cylinder_38": (primitives.CylinderParams(0.038, 0.10, 0.05),
+                    "upright cylinder, 38 mm x 100 mm, 50 g"),
+    "cylinder_51": (primitives.CylinderParams(0.051, 0.10, 0.09),
+                    "upright cylinder, 51 mm x 100 mm, 90 g"),
     "cylinder_51_hollow": (primitives.CylinderParams(0.051, 0.10, 0.056, wall_thickness_m=0.003),
                            "open tube, 51 mm outer diameter, 3 mm wall, 100 mm long"),
     "cube": (primitives.CubeParams(), "50 mm cube, 75 g"),
@@ -229,7 +232,7 @@ def _add_geom(spec: mujoco.MjSpec, body: mujoco.MjsBody, part: Part) -> None:
 def add_object(spec: mujoco.MjSpec, name: str, params: Any = None,
                pos: Sequence[float] = (0.0, 0.0, 0.0),
                quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0)) -> ObjectInfo:
-    """Add object `name` to `spec.worldbody` as free body `object` at `pos` (m), `quat` (w,x,y,z)."""
+    """Add object `name` to `spec.worldbody` as free body `object` at `pos` (m), `quat` (wxyz)."""
     built = build(name, params)
     if spec.body("object") is not None:
         raise ParameterError("the scene already has a body named 'object'")

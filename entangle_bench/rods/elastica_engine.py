@@ -19,13 +19,17 @@ Rest curvature: PyElastica's `rest_kappa` is the Darboux vector in its material 
 (d1, d2, d3 = t) with d' = kappa x d, the same convention as the case file, so
 rest_kappa = (k1, k2, tau).
 
-Relaxation: `AnalyticalLinearDamper` with uniform constant nu = 2 omega1, where omega1 =
-1.875^2 sqrt(E I / (rho A L^4)) is the first bending frequency of the cantilever (critical
-damping of the slowest mode); `PositionVerlet` steps until, over two consecutive check windows,
-the nodes moved less than `settle_tol` L and the largest node speed times 1/omega1 is below
-`settle_tol` L, or `max_time_s` of simulated time has passed (then settings["converged"] is
-False). With intrinsic curvature the rod starts by default from its exact discrete rest shape
-(zero elastic energy), which is the equilibrium in zero gravity and a close start otherwise.
+Relaxation: `AnalyticalLinearDamper` with uniform constant nu = 2 omega_slow, where omega_slow
+estimates the slowest mode (`slowest_frequency`): that mode is then critically damped and every
+faster one decays at least as fast. `PositionVerlet` steps until, at two consecutive checks
+0.5 / omega_slow apart, the nodes moved less than `settle_tol` L since the previous check and
+the largest node speed divided by omega_slow is below `settle_tol` L, or until `max_time_s` of
+simulated time (then settings["converged"] is False). With rest curvature or twist the rod
+starts by default from its exact discrete rest shape (zero elastic energy): this is already the
+equilibrium in zero gravity, and gravity then deforms it from there.
+
+Wall time: `wall_time_s` covers building and stepping. PyElastica's numba kernels are compiled
+on first use and cached on disk; the very first call on a machine adds about 30 s.
 """
 
 from __future__ import annotations
@@ -104,10 +108,16 @@ def stable_time_step(case: RodCase, n_elements: int, shear_factor: float, cfl: f
     return cfl * h / math.sqrt(shear_factor * case.youngs_modulus / case.density)
 
 
-def _build_rod(
-    case: RodCase, n_elements: int, shear_factor: float, initial: str
+def build_rod(
+    case: RodCase,
+    n_elements: int,
+    shear_factor: float = 20.0,
+    initial: Literal["straight", "rest"] = "straight",
 ) -> CosseratRod:
-    """Create the rod with the clamp-midpoint placement, stiffened shear and rest curvature."""
+    """PyElastica rod for `case`: clamp-midpoint placement, stiffened shear, rest curvature.
+
+    `initial` "straight" lays it along the base tangent, "rest" in its discrete rest shape.
+    """
     h = case.length / (n_elements - 0.5)
     t0 = np.asarray(case.base_direction, dtype=float)
     start = np.asarray(case.base_position) - 0.5 * h * t0
@@ -167,8 +177,8 @@ def solve_elastica(
 ) -> RodResult:
     """Relax `case` to equilibrium with PyElastica; return the centerline (n_output, 3) in m.
 
-    `damping_ratio` scales the damping constant 2 omega1; `settle_tol` is the stopping tolerance
-    as a fraction of L; `max_time_s` (simulated s) defaults to 60 / omega1; `initial` "auto"
+    `damping_ratio` scales the damping constant 2 omega_slow; `settle_tol` is the stopping tolerance
+    as a fraction of L; `max_time_s` (simulated s) defaults to 60 / omega_slow; `initial` "auto"
     starts from the discrete rest shape when the case has rest curvature or twist, else straight.
     """
     check_range("n_elements", n_elements, 4, None)
@@ -180,18 +190,18 @@ def solve_elastica(
     check_choice("initial", initial, ("auto", "straight", "rest"))
     curved = any(case.intrinsic_curvature) or case.intrinsic_twist != 0.0
     start_shape = ("rest" if curved else "straight") if initial == "auto" else initial
-    omega1 = slowest_frequency(case)
+    omega_slow = slowest_frequency(case)
     if max_time_s is None:
-        max_time_s = 60.0 / omega1
+        max_time_s = 60.0 / omega_slow
     check_range("max_time_s", max_time_s, 0.0, None, low_open=True)
     dt = stable_time_step(case, n_elements, shear_factor, cfl)
-    nu = 2.0 * omega1 * damping_ratio
-    check_time = 0.5 / omega1
+    nu = 2.0 * omega_slow * damping_ratio
+    check_time = 0.5 / omega_slow
     steps_per_check = max(1, int(round(check_time / dt)))
 
     wall_start = time.perf_counter()
     sim = _Simulator()
-    rod = _build_rod(case, n_elements, shear_factor, start_shape)
+    rod = build_rod(case, n_elements, shear_factor, start_shape)
     sim.append(rod)
     sim.constrain(rod).using(
         OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,)
@@ -223,7 +233,7 @@ def solve_elastica(
                 f"dt = {dt:.3g} s; reduce cfl = {cfl:g}"
             )
         change = float(np.max(np.linalg.norm(current - previous, axis=0)))
-        speed_measure = float(np.max(np.linalg.norm(rod.velocity_collection, axis=0))) / omega1
+        speed_measure = float(np.max(np.linalg.norm(rod.velocity_collection, axis=0))) / omega_slow
         previous = current.copy()
         quiet_checks = quiet_checks + 1 if max(change, speed_measure) < tol else 0
         if quiet_checks >= 2:
@@ -245,7 +255,7 @@ def solve_elastica(
         "sim_time_s": sim_time,
         "converged": converged,
         "last_change_m": change,
-        "last_speed_over_omega1_m": speed_measure,
+        "last_speed_over_omega_slow_m": speed_measure,
         "max_strain": float(np.max(np.abs(rod.sigma))),
     }
     return RodResult(centerline=centerline, engine=ENGINE_NAME, wall_time_s=wall, settings=settings)

@@ -62,7 +62,7 @@ def test_decomposition_covers_the_mesh_and_second_build_hits_the_cache(annulus, 
     second = meshes.decompose(annulus, TINY, tmp_path, label="ring")
     assert count_coacd == [1] and second.from_cache
     assert second.path == first.path
-    for (v1, f1), (v2, f2) in zip(first.parts, second.parts):
+    for (v1, f1), (v2, f2) in zip(first.parts, second.parts, strict=True):
         np.testing.assert_array_equal(v1, v2)
         np.testing.assert_array_equal(f1, f2)
     # other settings are another cache entry

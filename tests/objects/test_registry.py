@@ -1,6 +1,7 @@
 """Object registry: names, params, ObjectInfo, phi_T and the MuJoCo body that add_object builds."""
 
 import dataclasses
+import itertools
 import math
 
 import mujoco
@@ -88,10 +89,10 @@ def _tree_phi(**changes):
 def test_phi_t_falls_with_branch_length_and_rises_with_branch_count():
     # phi_T = V / V_hull: V grows linearly with branch length, the hull about quadratically
     by_length = [_tree_phi(branch_length_m=x) for x in (0.01, 0.03, 0.06)]
-    assert all(a > b for a, b in zip(by_length, by_length[1:]))
+    assert all(a > b for a, b in itertools.pairwise(by_length))
     # more branches of the same length add volume but, once they ring the trunk, little hull
     by_count = [_tree_phi(branch_count=n) for n in (8, 16, 24)]
-    assert all(a < b for a, b in zip(by_count, by_count[1:]))
+    assert all(a < b for a, b in itertools.pairwise(by_count))
 
 
 def test_tree_volume_and_centroid_match_plain_monte_carlo():
@@ -219,6 +220,7 @@ def test_bracket_volume_is_sum_of_parts_minus_overlaps():
     handle = math.pi * p.handle_radius_m**2 * p.handle_length_m
     assert info.volume_m3 == pytest.approx(bar + jaws + handle, rel=1e-3)
     # and the Monte Carlo overlap removal agrees with that exact value for the boxes alone
-    boxes = [Box("a", (0, 0, 0), (0.05, 0.01, 0.01)), Box("b", (0.04, 0.0, 0.0), (0.01, 0.03, 0.01))]
+    boxes = [Box("a", (0, 0, 0), (0.05, 0.01, 0.01)),
+             Box("b", (0.04, 0.0, 0.0), (0.01, 0.03, 0.01))]
     assert union_moments(boxes).volume == pytest.approx(
         0.1 * 0.02 * 0.02 + 0.02 * 0.04 * 0.02, rel=0.01)
