@@ -15,10 +15,12 @@ import hashlib
 import importlib.metadata
 import json
 import multiprocessing
+import os
 import platform
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Protocol
 
 import mujoco
@@ -29,6 +31,7 @@ from tqdm import tqdm
 import entangle_bench
 from entangle_bench.config import to_flat_dict
 from entangle_bench.metrics.acn import acn_total
+from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.local_fields import local_fields
 from entangle_bench.results import TrialLog
 from entangle_bench.suite.top_drape import TopDrapeConfig, make_environment, scripted_action
@@ -69,21 +72,42 @@ def versions() -> dict[str, str]:
     }
 
 
-def snapshot(physics: Any, prefix: str) -> dict[str, float]:
-    """Entanglement and contact metrics of the current state, keys prefixed."""
+def snapshot(physics: Any, prefix: str, state_path: Path | None) -> dict[str, float]:
+    """Entanglement and contact metrics of the current state, keys prefixed; saves the state if asked.
+
+    The saved .npz holds `curves` (F, n + 1, 3), `contact_points` (c, 3), `contact_kinds` (c,) and
+    `contact_forces_n` (c,): the input of scripts/plot_entanglement.py.
+    """
     curves = physics.centerlines()
     fields = local_fields(curves, LOCAL_ACN_DIAMETER_M)
+    scene = physics.scene
+    contacts = contact_summary(
+        physics.model.ptr, physics.data.ptr, scene.filament_of_geom, scene.is_object_geom
+    )
     row = {
         f"{prefix}.acn_total": acn_total(curves),
         f"{prefix}.local_acn_mean": fields.mean_acn,
         f"{prefix}.local_acn_max": fields.max_acn,
         f"{prefix}.local_count_mean": fields.mean_count,
     }
-    row.update({f"{prefix}.contacts.{k}": v for k, v in physics.contact_counts().items()})
+    row.update({f"{prefix}.contacts.{k}": v for k, v in contacts.counts.items()})
+    if state_path is not None:
+        state_path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = state_path.with_name(f".{state_path.name}.tmp.npz")
+        np.savez_compressed(
+            tmp,
+            curves=curves,
+            contact_points=contacts.points,
+            contact_kinds=contacts.kinds,
+            contact_forces_n=contacts.normal_forces_n,
+        )
+        os.replace(tmp, state_path)
     return row
 
 
-def _simulate(spec: TrialSpec, limits: WatchdogLimits, inject_nan_at_s: float | None) -> dict[str, Any]:
+def _simulate(
+    spec: TrialSpec, limits: WatchdogLimits, inject_nan_at_s: float | None, state_dir: Path | None
+) -> dict[str, Any]:
     env = make_environment(spec.config, spec.seed)
     physics, task = env.physics, env.task
     model, data = physics.model.ptr, physics.data.ptr
@@ -110,7 +134,8 @@ def _simulate(spec: TrialSpec, limits: WatchdogLimits, inject_nan_at_s: float | 
             for name, when in (("actuated", "lift"), ("held", "release")):
                 if phase == when and name not in taken:
                     taken.add(name)
-                    row.update(snapshot(physics, name))
+                    path = None if state_dir is None else state_dir / f"{spec.trial_id}_{name}.npz"
+                    row.update(snapshot(physics, name, path))
     except (WatchdogTripped, PhysicsError) as exc:
         reason = exc.reason if isinstance(exc, WatchdogTripped) else f"physics_error:{exc}"
         row.update(outcome="unstable", unstable_reason=reason, unstable_time_s=physics.time())
@@ -130,20 +155,22 @@ def run_trial(
     limits: WatchdogLimits = WatchdogLimits(),
     retry_unstable: bool = False,
     inject_nan_at_s: float | None = None,
+    state_dir: Path | None = None,
 ) -> dict[str, Any]:
     """Run one trial and return its results row.
 
     With `retry_unstable`, an unstable trial is rerun once with half the timestep and the row says so.
-    `inject_nan_at_s` corrupts the state at that time (for testing the watchdog).
+    `inject_nan_at_s` corrupts the state at that time (for testing the watchdog). With `state_dir`, the
+    filament and contact states at the end of actuation and of the hold are saved there as .npz.
     """
     start = time.perf_counter()
-    row = _simulate(spec, limits, inject_nan_at_s)
+    row = _simulate(spec, limits, inject_nan_at_s, state_dir)
     retried = False
     if row["outcome"] == "unstable" and retry_unstable:
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
         halved = dataclasses.replace(spec, config=dataclasses.replace(spec.config, numerics=numerics))
         first_reason = row["unstable_reason"]
-        row = _simulate(halved, limits, inject_nan_at_s)
+        row = _simulate(halved, limits, inject_nan_at_s, state_dir)
         row["first_unstable_reason"] = first_reason
         retried = True
     return {
@@ -224,7 +251,7 @@ def run_trials(
         file=sys.stderr,
     )
     rows, successes = [], 0
-    runner = _Runner(retry_unstable)
+    runner = _Runner(retry_unstable, log.path.parent / "states")
     for row in executor.map_unordered(runner, todo):
         log.append(row)
         rows.append(row)
@@ -240,6 +267,7 @@ class _Runner:
     """Picklable callable for worker processes."""
 
     retry_unstable: bool
+    state_dir: Path
 
     def __call__(self, spec: TrialSpec) -> dict[str, Any]:
-        return run_trial(spec, retry_unstable=self.retry_unstable)
+        return run_trial(spec, retry_unstable=self.retry_unstable, state_dir=self.state_dir)

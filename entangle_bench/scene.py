@@ -69,6 +69,8 @@ class Scene:
     """(ngeom,) filament index of each geom, -1 for non-filament geoms."""
     is_object_geom: np.ndarray
     """(ngeom,) True for the object's geoms."""
+    is_ground_geom: np.ndarray
+    """(ngeom,) True for the ground plane."""
 
     @property
     def object_body(self) -> int:
@@ -132,7 +134,9 @@ def build_scene(
     is_object_geom = np.zeros(model.ngeom, dtype=bool)
     for name in object_geoms:
         is_object_geom[model.geom(name).id] = True
-    return Scene(config, model, gripper, info, filament_of_geom, is_object_geom)
+    is_ground_geom = np.zeros(model.ngeom, dtype=bool)
+    is_ground_geom[model.geom("ground").id] = True
+    return Scene(config, model, gripper, info, filament_of_geom, is_object_geom, is_ground_geom)
 
 
 def kinetic_energy(model: mujoco.MjModel, data: mujoco.MjData) -> float:

@@ -183,18 +183,22 @@ def _homotopy(solve_at, x: np.ndarray, y: np.ndarray, load: float, curvature: fl
     """
     sol = None
     if load > 0.0:
-        x, y, sol = _ramp(lambda lam, a, b: solve_at(lam, 0.0, a, b), "gravity", x, y,
-                          min(1.0, 1.0 / load))
+        x, y, sol = _ramp(
+            lambda lam, a, b: solve_at(lam, 0.0, a, b), "gravity", x, y, min(1.0, 1.0 / load)
+        )
     if curvature > 0.0 or sol is None:
         g_scale = 1.0 if load > 0.0 else 0.0
-        x, y, sol = _ramp(lambda lam, a, b: solve_at(g_scale, lam, a, b), "rest curvature", x, y,
-                          min(1.0, 1.0 / max(curvature, 1e-300)))
+        x, y, sol = _ramp(
+            lambda lam, a, b: solve_at(g_scale, lam, a, b),
+            "rest curvature",
+            x,
+            y,
+            min(1.0, 1.0 / max(curvature, 1e-300)),
+        )
     return sol
 
 
-def planar_elastica_centerline(
-    case: RodCase, m: int = 201, tol: float = _BVP_TOL
-) -> np.ndarray:
+def planar_elastica_centerline(case: RodCase, m: int = 201, tol: float = _BVP_TOL) -> np.ndarray:
     """Large-deflection planar elastica centerline (m,3) in m, uniform arclength, base to tip.
 
     Needs a planar case (see `planar_plane`); solves in sigma = s/L for theta, theta', x/L, y/L
@@ -268,10 +272,12 @@ def kirchhoff_centerline(case: RodCase, m: int = 201, tol: float = _BVP_TOL) -> 
 
     sig = np.linspace(0.0, 1.0, 101)
     straight = x0[:, None] + r0[:, :1] * sig[None, :]
-    guess = np.vstack([straight, np.repeat(r0.reshape(9, 1), sig.size, axis=1),
-                       np.zeros((3, sig.size))])
-    sol = _homotopy(solve_at, sig, guess, float(np.linalg.norm(gravity)),
-                    float(np.linalg.norm(omega0)))
+    guess = np.vstack(
+        [straight, np.repeat(r0.reshape(9, 1), sig.size, axis=1), np.zeros((3, sig.size))]
+    )
+    sol = _homotopy(
+        solve_at, sig, guess, float(np.linalg.norm(gravity)), float(np.linalg.norm(omega0))
+    )
     return length * sol(np.linspace(0.0, 1.0, int(m)))[:3].T
 
 

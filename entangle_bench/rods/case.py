@@ -136,8 +136,13 @@ class RodCase:
                 raise ParameterError(f"{name} must have 3 components")
         if len(self.intrinsic_curvature) != 2:
             raise ParameterError("intrinsic_curvature must have 2 components")
-        for name in ("gravity", "base_position", "base_direction", "base_normal",
-                     "intrinsic_curvature"):
+        for name in (
+            "gravity",
+            "base_position",
+            "base_direction",
+            "base_normal",
+            "intrinsic_curvature",
+        ):
             values = getattr(self, name)
             for i, v in enumerate(values):
                 check_range(f"{name}[{i}]", v)
@@ -345,8 +350,11 @@ class RodResult:
         path = Path(path)
         try:
             with np.load(path, allow_pickle=False) as data:
-                missing = [k for k in ("centerline", "engine", "wall_time_s", "settings")
-                           if k not in data.files]
+                missing = [
+                    k
+                    for k in ("centerline", "engine", "wall_time_s", "settings")
+                    if k not in data.files
+                ]
                 if missing:
                     raise FileFormatError(f"{path}: missing field {missing[0]!r}")
                 return cls(

@@ -76,9 +76,7 @@ def slowest_frequency(case: RodCase) -> float:
     omega_g = 1.2024 sqrt(|g| / L) the first mode of a hanging chain (Bernoulli), which
     dominates for rods that gravity holds in tension.
     """
-    bending = _FIRST_MODE * math.sqrt(
-        case.bending_stiffness / (case.line_density * case.length**4)
-    )
+    bending = _FIRST_MODE * math.sqrt(case.bending_stiffness / (case.line_density * case.length**4))
     chain = _HANGING_CHAIN_MODE * math.sqrt(float(np.linalg.norm(case.gravity)) / case.length)
     return math.hypot(bending, chain)
 
@@ -91,8 +89,10 @@ def _without_inertia_warning() -> Iterator[None]:
     filaments always trip; the warning says nothing about the run. The filter is removed after.
     """
     log_filter = logging.Filter()
-    log_filter.filter = lambda record: not record.getMessage().startswith(  # type: ignore
-        "Mass moment of inertia matrix smaller than tolerance"
+    log_filter.filter = lambda record: (
+        not record.getMessage().startswith(  # type: ignore
+            "Mass moment of inertia matrix smaller than tolerance"
+        )
     )
     root = logging.getLogger()
     root.addFilter(log_filter)
@@ -197,7 +197,7 @@ def solve_elastica(
     dt = stable_time_step(case, n_elements, shear_factor, cfl)
     nu = 2.0 * omega_slow * damping_ratio
     check_time = 0.5 / omega_slow
-    steps_per_check = max(1, int(round(check_time / dt)))
+    steps_per_check = max(1, round(check_time / dt))
 
     wall_start = time.perf_counter()
     sim = _Simulator()

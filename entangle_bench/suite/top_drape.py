@@ -25,6 +25,7 @@ from entangle_bench import effects as fx
 from entangle_bench.config import check_range
 from entangle_bench.errors import ParameterError
 from entangle_bench.gripper import GripperParams, bending_angles
+from entangle_bench.metrics.contacts import KINDS, classify_geom_pairs
 from entangle_bench.presets import Numerics
 from entangle_bench.scene import ContactParams, Scene, SceneConfig, build_scene
 
@@ -213,19 +214,11 @@ class Physics(dm_mujoco.Physics):
 
 
 def count_contacts(scene: Scene, data: mujoco.MjData) -> dict[str, int]:
-    """Numbers of active contacts: filament-object, filament-filament, filament-self, filament-ground, object-ground."""
-    geoms = data.contact.geom[: data.ncon]
-    fil = scene.filament_of_geom[geoms]
-    obj = scene.is_object_geom[geoms]
-    ground = geoms == 0
-    is_fil = fil >= 0
-    return {
-        "filament_object": int(np.sum(is_fil.any(1) & obj.any(1))),
-        "filament_filament": int(np.sum(is_fil.all(1) & (fil[:, 0] != fil[:, 1]))),
-        "filament_self": int(np.sum(is_fil.all(1) & (fil[:, 0] == fil[:, 1]))),
-        "filament_ground": int(np.sum(is_fil.any(1) & ground.any(1))),
-        "object_ground": int(np.sum(obj.any(1) & ground.any(1))),
-    }
+    """Numbers of active contacts by kind (`metrics.contacts.KINDS`)."""
+    kinds = classify_geom_pairs(
+        data.contact.geom[: data.ncon], scene.filament_of_geom, scene.is_object_geom, scene.is_ground_geom
+    )
+    return {kind: int(np.count_nonzero(kinds == kind)) for kind in KINDS}
 
 
 @dataclass

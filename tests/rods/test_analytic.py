@@ -20,9 +20,16 @@ CASE_DIR = Path(__file__).resolve().parents[2] / "tasks" / "rod_cases"
 def _rod(**changes) -> RodCase:
     """A 0.3 m filament hanging along -z from (0, 0, 0.5), d1 = +x, zero gravity."""
     base = RodCase(
-        name="probe", length=0.3, radius=7e-4, youngs_modulus=1e6, poisson_ratio=0.5,
-        density=1100.0, gravity=(0.0, 0.0, 0.0), base_position=(0.0, 0.0, 0.5),
-        base_direction=(0.0, 0.0, -1.0), base_normal=(1.0, 0.0, 0.0),
+        name="probe",
+        length=0.3,
+        radius=7e-4,
+        youngs_modulus=1e6,
+        poisson_ratio=0.5,
+        density=1100.0,
+        gravity=(0.0, 0.0, 0.0),
+        base_position=(0.0, 0.0, 0.5),
+        base_direction=(0.0, 0.0, -1.0),
+        base_normal=(1.0, 0.0, 0.0),
     )
     return dataclasses.replace(base, **changes)
 
@@ -36,8 +43,11 @@ def _turning_angle(points: np.ndarray) -> np.ndarray:
     a, b, c = points[:-2], points[1:-1], points[2:]
     ab, bc, ca = b - a, c - b, a - c
     area2 = np.linalg.norm(np.cross(ab, bc), axis=1)
-    return 2.0 * area2 / (np.linalg.norm(ab, axis=1) * np.linalg.norm(bc, axis=1)
-                          * np.linalg.norm(ca, axis=1))
+    return (
+        2.0
+        * area2
+        / (np.linalg.norm(ab, axis=1) * np.linalg.norm(bc, axis=1) * np.linalg.norm(ca, axis=1))
+    )
 
 
 @pytest.mark.parametrize(
@@ -53,7 +63,9 @@ def test_arc_is_a_circle_bending_the_documented_way(curvature, bend_toward):
     np.testing.assert_allclose(np.linalg.norm(points - center, axis=1), 0.1, rtol=1e-12)
     assert _arclength(points) == pytest.approx(0.3, rel=1e-6)
     angle = 3.0  # L k
-    tip = center + 0.1 * (np.sin(angle) * np.array([0, 0, -1.0]) - np.cos(angle) * np.array(bend_toward))
+    tip = center + 0.1 * (
+        np.sin(angle) * np.array([0, 0, -1.0]) - np.cos(angle) * np.array(bend_toward)
+    )
     np.testing.assert_allclose(points[-1], tip, atol=1e-15)
 
 
@@ -86,7 +98,7 @@ def test_helix_radius_pitch_and_reduction_to_circle():
     # One full turn of arclength 2 pi sqrt(R^2 + c^2) advances by one pitch along the axis.
     turn = 2 * np.pi * np.hypot(radius, pitch / (2 * np.pi))
     ds = case.length / 4000
-    k = int(round(turn / ds))
+    k = round(turn / ds)
     advance = (points[k] - points[0]) @ axis
     assert advance == pytest.approx(pitch * k * ds / turn, rel=1e-9)
     # Zero twist: the helix degenerates to the circle of radius 1/kappa in one plane.
@@ -144,7 +156,7 @@ def test_soft_cantilever_is_large_deflection_and_in_equilibrium():
     for i in idx:
         arm = points[i:] - points[i]
         moment = np.linalg.norm(np.trapezoid(np.cross(arm, weight), s[i:], axis=0))
-        curvature = _turning_angle(points[i - 1:i + 2])[0]
+        curvature = _turning_angle(points[i - 1 : i + 2])[0]
         # measured 2e-4: the curvature of solve_bvp's cubic interpolant is second-order accurate
         assert case.bending_stiffness * curvature == pytest.approx(moment, rel=1e-3)
 
@@ -169,8 +181,10 @@ def test_sideways_curl_is_three_dimensional():
 
 
 def test_reference_method_per_case_file():
-    methods = {path.stem: an.reference_centerline(load_case(path), 21)[1]
-               for path in sorted(CASE_DIR.glob("*.json"))}
+    methods = {
+        path.stem: an.reference_centerline(load_case(path), 21)[1]
+        for path in sorted(CASE_DIR.glob("*.json"))
+    }
     assert methods == {
         "arc_zero_gravity": "rest_shape",
         "coil_zero_gravity": "rest_shape",

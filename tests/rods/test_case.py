@@ -145,9 +145,16 @@ def test_not_an_object_and_not_json(tmp_path):
 def test_direct_construction_is_checked():
     with pytest.raises(ParameterError, match="poisson_ratio"):
         RodCase.from_dict(VALID).__class__(
-            name="x", length=1.0, radius=0.1, youngs_modulus=1.0, poisson_ratio=0.7,
-            density=1.0, gravity=(0, 0, 0), base_position=(0, 0, 0),
-            base_direction=(1, 0, 0), base_normal=(0, 1, 0),
+            name="x",
+            length=1.0,
+            radius=0.1,
+            youngs_modulus=1.0,
+            poisson_ratio=0.7,
+            density=1.0,
+            gravity=(0, 0, 0),
+            base_position=(0, 0, 0),
+            base_direction=(1, 0, 0),
+            base_normal=(0, 1, 0),
         )
 
 

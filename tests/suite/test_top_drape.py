@@ -137,6 +137,6 @@ def test_short_real_trial_of_default_tree_task():
     assert row["sim_time_s"] == pytest.approx(
         Schedule.from_config(config, 0.144).t_end, abs=0.02
     )
-    assert row["actuated.contacts.filament_object"] >= 0
+    assert row["actuated.contacts.filament-object"] >= 0
     assert np.isfinite(row["held.acn_total"])
     assert dataclasses.asdict(config)  # resolved config is a plain dataclass tree
