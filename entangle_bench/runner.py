@@ -33,6 +33,7 @@ from entangle_bench.config import to_flat_dict
 from entangle_bench.metrics.acn import acn_total
 from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.local_fields import local_fields
+from entangle_bench.recording import TrialRecorder
 from entangle_bench.results import TrialLog
 from entangle_bench.suite.top_drape import TopDrapeConfig, make_environment, scripted_action
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogTripped
@@ -106,7 +107,11 @@ def snapshot(physics: Any, prefix: str, state_path: Path | None) -> dict[str, fl
 
 
 def _simulate(
-    spec: TrialSpec, limits: WatchdogLimits, inject_nan_at_s: float | None, state_dir: Path | None
+    spec: TrialSpec,
+    limits: WatchdogLimits,
+    inject_nan_at_s: float | None,
+    state_dir: Path | None,
+    recorder: TrialRecorder | None,
 ) -> dict[str, Any]:
     env = make_environment(spec.config, spec.seed)
     physics, task = env.physics, env.task
@@ -131,6 +136,8 @@ def _simulate(
             time_step = env.step(scripted_action(spec.config, schedule, t))
             watchdog.check(model, data)
             phase = schedule.phase(physics.time() + 1e-9)
+            if recorder is not None:
+                recorder.maybe_record(physics.time(), physics, phase, task.pressure_pa)
             for name, when in (("actuated", "lift"), ("held", "release")):
                 if phase == when and name not in taken:
                     taken.add(name)
@@ -156,21 +163,33 @@ def run_trial(
     retry_unstable: bool = False,
     inject_nan_at_s: float | None = None,
     state_dir: Path | None = None,
+    record_dir: Path | None = None,
 ) -> dict[str, Any]:
     """Run one trial and return its results row.
 
     With `retry_unstable`, an unstable trial is rerun once with half the timestep and the row says so.
     `inject_nan_at_s` corrupts the state at that time (for testing the watchdog). With `state_dir`, the
-    filament and contact states at the end of actuation and of the hold are saved there as .npz.
+    filament and contact states at the end of actuation and of the hold are saved there as .npz; with
+    `record_dir`, the whole trial is recorded there as `<trial_id>.mcap`.
     """
     start = time.perf_counter()
-    row = _simulate(spec, limits, inject_nan_at_s, state_dir)
+    recorder = None
+    if record_dir is not None:
+        recorder = TrialRecorder(
+            record_dir / f"{spec.trial_id}.mcap",
+            metadata={"task": spec.task, "seed": str(spec.seed), "condition": spec.condition},
+        )
+    try:
+        row = _simulate(spec, limits, inject_nan_at_s, state_dir, recorder)
+    finally:
+        if recorder is not None:
+            recorder.close()
     retried = False
     if row["outcome"] == "unstable" and retry_unstable:
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
         halved = dataclasses.replace(spec, config=dataclasses.replace(spec.config, numerics=numerics))
         first_reason = row["unstable_reason"]
-        row = _simulate(halved, limits, inject_nan_at_s, state_dir)
+        row = _simulate(halved, limits, inject_nan_at_s, state_dir, None)
         row["first_unstable_reason"] = first_reason
         retried = True
     return {
@@ -237,6 +256,7 @@ def run_trials(
     executor: Executor,
     retry_unstable: bool = False,
     progress: bool = True,
+    record: bool = False,
 ) -> list[dict[str, Any]]:
     """Run every spec whose trial id is not yet in `log`, appending rows as they finish; return new rows."""
     specs = list(specs)
@@ -251,7 +271,8 @@ def run_trials(
         file=sys.stderr,
     )
     rows, successes = [], 0
-    runner = _Runner(retry_unstable, log.path.parent / "states")
+    folder = log.path.parent
+    runner = _Runner(retry_unstable, folder / "states", folder / "recordings" if record else None)
     for row in executor.map_unordered(runner, todo):
         log.append(row)
         rows.append(row)
@@ -268,6 +289,9 @@ class _Runner:
 
     retry_unstable: bool
     state_dir: Path
+    record_dir: Path | None
 
     def __call__(self, spec: TrialSpec) -> dict[str, Any]:
-        return run_trial(spec, retry_unstable=self.retry_unstable, state_dir=self.state_dir)
+        return run_trial(
+            spec, retry_unstable=self.retry_unstable, state_dir=self.state_dir, record_dir=self.record_dir
+        )

@@ -30,6 +30,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--offsets", default=None, help="task runs only: comma-separated offsets in m")
     p.add_argument("--seed", type=int, default=0, help="first seed")
     p.add_argument("--retry-unstable", action="store_true", help="rerun unstable trials at dt/2")
+    p.add_argument("--record", action="store_true",
+                   help="record every trial as MCAP under OUT/recordings (Foxglove-viewable)")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(run=run)
 
@@ -66,7 +68,9 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path("results") / header["name"]
     log = TrialLog(out / "trials.jsonl")
     print(f"{header['name']}: {len(specs)} trials -> {out}")
-    run_trials(specs, log, make_executor(args.workers), args.retry_unstable, not args.no_progress)
+    run_trials(
+        specs, log, make_executor(args.workers), args.retry_unstable, not args.no_progress, args.record
+    )
     rows = log.frame()
     wanted = {s.trial_id for s in specs}
     rows = rows[rows["trial_id"].isin(wanted)]

@@ -7,7 +7,7 @@
   w(s) = q s^2 (6 L^2 - 4 L s + s^2) / (24 E I), tip q L^4 / (8 E I) (Timoshenko & Gere,
   Mechanics of Materials, table of beam deflections).
 * `planar_elastica_centerline`: large-deflection planar Euler elastica under uniform gravity with
-  in-plane rest curvature, E I theta'' = -rho A (L - s) (g x t) . e_z, theta(0) = 0,
+  in-plane rest curvature, E I theta'' = -rho A (L - s) (t x g) . e_z, theta(0) = 0,
   theta'(L) = kappa0, solved with scipy's collocation solver (Bisshopp & Drucker, Q. Appl.
   Math. 3, 1945, for the cantilever; Antman, Nonlinear Problems of Elasticity, ch. 4).
 * `kirchhoff_centerline`: the general 3D static Kirchhoff rod with the same load,
@@ -177,8 +177,9 @@ def _ramp(solve_at, stage: str, x: np.ndarray, y: np.ndarray, first_step: float)
 def _homotopy(solve_at, x: np.ndarray, y: np.ndarray, load: float, curvature: float):
     """Solve `solve_at(g_scale, k_scale, x, y)` at (1, 1) starting from the straight rod at (0, 0).
 
-    Stage 1 ramps gravity on the straight-rest rod (a cantilever: one equilibrium branch); stage 2
-    ramps the rest curvature and twist at full gravity. The first steps keep the dimensionless
+    Stage 1 ramps gravity on the straight-rest rod (a plain cantilever); stage 2 ramps the rest
+    curvature and twist at full gravity. Where several equilibria exist, the one connected to
+    this path is returned. The first steps keep the dimensionless
     load rho A g L^3 / (E I) and the rest turning angle |Omega0| L near 1 per step.
     """
     sol = None
