@@ -154,10 +154,12 @@ class Gripper:
     filaments: list[FilamentHandle]
     hub_name: str = "hub"
     _spring_adr: np.ndarray | None = None
+    _body_ids: np.ndarray | None = None
 
     def bind(self, model: mujoco.MjModel) -> None:
-        """Resolve qpos_spring addresses in a compiled model."""
+        """Resolve qpos_spring addresses and segment body ids in a compiled model."""
         self._spring_adr = np.stack([f.qpos_addresses(model) for f in self.filaments])
+        self._body_ids = np.stack([f.body_ids(model) for f in self.filaments])
 
     @property
     def spring_addresses(self) -> np.ndarray:
@@ -169,7 +171,9 @@ class Gripper:
     def centerlines(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """(F, n + 1, 3) joint positions root to tip of every filament, m (needs mj_kinematics done)."""
         ds = self.params.filament.segment_length_m
-        ids = np.stack([f.body_ids(model) for f in self.filaments])
+        ids = self._body_ids
+        if ids is None:
+            raise RuntimeError("Gripper.bind(model) must be called after compiling")
         out = np.empty((ids.shape[0], ids.shape[1] + 1, 3))
         out[:, :-1] = data.xpos[ids]
         out[:, -1] = data.xpos[ids[:, -1]] + ds * data.xmat[ids[:, -1]].reshape(-1, 3, 3)[:, :, 0]

@@ -1,10 +1,12 @@
 """Numerical stability: a watchdog probe of filaments actuating in air, and the measured stable envelope.
 
 `probe` runs a gripper (no object) hanging from a fixed hub: random joint perturbations, a pressure ramp to
-the configured pressure, a hold, all under the runtime watchdog with bounds scaled to the gripper's own
-energy. `scripts/stability_map.py` sweeps it over Young's modulus x timestep x segments for every
-integrator (results/stability/); its boundary is recorded in ENVELOPE below, and `envelope_warnings`
-compares a resolved configuration against it before a run.
+the configured pressure, a hold, all under the runtime watchdog with an energy bound scaled to the gripper's
+own energy. `scripts/stability_map.py` sweeps it over Young's modulus x timestep x segments for every
+integrator with a small array that touches itself (MAP_GRIPPER: three filaments 8.7 mm apart, every contact
+effect on, since filament contact halves the stable timestep of stiff filaments compared with a lone rod);
+the boundary is recorded in ENVELOPE below, and `envelope_warnings` compares a resolved configuration
+against it before a run.
 """
 
 from __future__ import annotations
@@ -17,13 +19,18 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from entangle_bench import effects as fx
-from entangle_bench.gripper import bending_angles
+from entangle_bench.filament import FilamentParams
+from entangle_bench.gripper import GripperParams, bending_angles
+from entangle_bench.presets import DEFAULT_PRESET, PRESETS, Numerics, get_preset
 from entangle_bench.scene import SceneConfig, build_scene
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
-#: Effects of the probe: gravity and the rod alone, so only the integration of the rod can fail.
-PROBE_EFFECTS = fx.NO_CONTACT
+#: The filament the stability map was measured with (the reference design).
+REFERENCE_FILAMENT = FilamentParams()
+
+#: Layout of the stability map: three filaments on a 10 mm circle (8.7 mm apart), close enough to coil
+#: into each other, with every contact effect of the default Effects on.
+MAP_GRIPPER = GripperParams(filament=REFERENCE_FILAMENT, ring_diameters_m=(0.01,), ring_counts=(3,))
 
 
 @dataclass(frozen=True)
@@ -47,14 +54,11 @@ def actuation_energy_j(config: SceneConfig) -> float:
 
 
 def probe_limits(config: SceneConfig) -> WatchdogLimits:
-    """Watchdog bounds scaled to the gripper: energy slack 10 % of its actuation plus lifting energy."""
+    """Watchdog bounds for a probe: 10 m/s, and an energy slack of 10 % of the gripper's actuation plus
+    lifting energy (the trial default, 0.05 J, would hide the blow-up of a few light filaments)."""
     fil = config.gripper.filament
     lift = config.gripper.n_filaments * fil.mass_kg * 9.81 * fil.length_m
-    return WatchdogLimits(
-        max_speed_m_s=10.0,
-        max_penetration_m=2.0 * fil.outer_radius_m,
-        energy_slack_j=0.1 * (actuation_energy_j(config) + lift),
-    )
+    return WatchdogLimits(max_speed_m_s=10.0, energy_slack_j=0.1 * (actuation_energy_j(config) + lift))
 
 
 def probe(
@@ -101,7 +105,197 @@ def probe(
     )
 
 
-def coil_radius_m(config: SceneConfig) -> float:
-    """Free coil radius 1 / kappa at the configured pressure, m (inf when unactuated)."""
-    kappa = config.gripper.filament.curvature_per_m(config.gripper.pressure_pa)
-    return math.inf if kappa == 0 else 1.0 / kappa
+# ---------------------------------------------------------------------------------------------------------
+# The measured envelope
+
+INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
+MAP_SEGMENTS = (8, 12, 16, 24, 40, 64, 96)
+MAP_MODULI_PA = (0.05e6, 0.2e6, 1e6, 3e6, 10e6, 30e6)
+MAP_TIMESTEPS_S = (0.125e-3, 0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3)
+
+#: Largest timestep (s) at which the probe was stable, and every smaller one too, measured by
+#: `scripts/stability_map.py` (results/stability/stability_map.csv): integrator -> segments -> one value per
+#: modulus of MAP_MODULI_PA. The map holds the reference filament (L = 300 mm), so a configuration is looked
+#: up by its equivalent segment count L_ref / ds and its equivalent modulus (same EI / (rho A)).
+ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
+    "euler": {
+        8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.004),
+        12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.002),
+        16: (0.008, 0.008, 0.008, 0.008, 0.004, 0.001),
+        24: (0.008, 0.008, 0.008, 0.004, 0.002, 0.0005),
+        40: (0.008, 0.008, 0.004, 0.002, 0.0005, 0.000125),
+        64: (0.008, 0.008, 0.002, 0.0005, 0.00025, 0),
+        96: (0.008, 0.004, 0.001, 0.00025, 0, 0),
+    },
+    "implicitfast": {
+        8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        16: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        24: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        40: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        64: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        96: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+    },
+    "implicit": {
+        8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        16: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        24: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        40: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        64: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        96: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+    },
+    "rk4": {
+        8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.004),
+        16: (0.008, 0.008, 0.008, 0.008, 0.008, 0.002),
+        24: (0.008, 0.008, 0.008, 0.008, 0.002, 0.0005),
+        40: (0.008, 0.008, 0.008, 0.002, 0.001, 0.00025),
+        64: (0.008, 0.008, 0.004, 0.001, 0.00025, 0.000125),
+        96: (0.008, 0.008, 0.001, 0.0005, 0.000125, 0),
+    },
+}
+
+def base_numerics(integrator: str) -> Numerics:
+    """Numerics the map uses for `integrator`: the first preset using it, else the default preset."""
+    for preset in PRESETS.values():
+        if preset.numerics.integrator == integrator:
+            return preset.numerics
+    return dataclasses.replace(get_preset(DEFAULT_PRESET).numerics, integrator=integrator)
+
+
+def equivalent_segments(filament: FilamentParams) -> float:
+    """Segments the reference filament would need for the same segment length."""
+    return REFERENCE_FILAMENT.length_m / filament.segment_length_m
+
+
+def equivalent_modulus_pa(filament: FilamentParams) -> float:
+    """Modulus giving the reference filament the same bending wave speed^2 EI / (rho A), Pa."""
+    ref = REFERENCE_FILAMENT
+    per_pa = ref.bending_stiffness_nm2 / ref.youngs_modulus_pa / ref.linear_density_kg_m
+    return filament.bending_stiffness_nm2 / filament.linear_density_kg_m / per_pa
+
+
+def max_stable_timestep_s(
+    integrator: str,
+    n_segments: float,
+    modulus_pa: float,
+    table: dict[str, dict[int, tuple[float, ...]]] | None = None,
+) -> float | None:
+    """Largest measured stable timestep for reference-equivalent segments and modulus, s.
+
+    Conservative lookup: the next finer measured segmentation and the next stiffer measured modulus
+    (finer and stiffer are less stable). None when the point lies outside the map.
+    """
+    by_n = (ENVELOPE if table is None else table).get(integrator)
+    if not by_n:
+        return None
+    finer = [n for n in sorted(by_n) if n >= n_segments - 1e-9]
+    stiffer = [k for k, e in enumerate(MAP_MODULI_PA) if e >= modulus_pa * (1 - 1e-9)]
+    if not finer or not stiffer:
+        return None
+    return by_n[finer[0]][stiffer[0]]
+
+
+def preset_envelopes(
+    table: dict[str, dict[int, tuple[float, ...]]] | None = None,
+) -> dict[str, dict[str, object]]:
+    """Per preset: its settings, the largest stable timestep at E = 1 MPa, the moduli and the finest
+    segmentation stable at its own timestep (from the map's table)."""
+    table = ENVELOPE if table is None else table
+    out: dict[str, dict[str, object]] = {}
+    for name, preset in PRESETS.items():
+        num, n = preset.numerics, preset.n_segments
+        dt_max = max_stable_timestep_s(num.integrator, n, 1e6, table)
+        moduli = [
+            e for e in MAP_MODULI_PA
+            if (max_stable_timestep_s(num.integrator, n, e, table) or 0.0) >= num.timestep_s
+        ]
+        finest = [
+            m for m in table.get(num.integrator, {})
+            if (max_stable_timestep_s(num.integrator, m, 1e6, table) or 0.0) >= num.timestep_s
+        ]
+        out[name] = {
+            "integrator": num.integrator,
+            "n_segments": n,
+            "timestep_s": num.timestep_s,
+            "max_timestep_s": dt_max or 0.0,
+            "modulus_range": (
+                f"{min(moduli) / 1e6:g} to {max(moduli) / 1e6:g}" if moduli else "none measured"
+            ),
+            "max_modulus_pa": max(moduli) if moduli else 0.0,
+            "max_segments": max(finest) if finest else 0,
+        }
+    return out
+
+
+#: Largest rest rotation per segment kappa * ds, rad. Beyond it the discrete coil curls unphysically fast
+#: (default top-drape trial, balanced preset: largest body speed 0.9 m/s at 2 rad, 2.3 m/s at 2.5 rad,
+#: 6.7 m/s at 3 rad, against 0.55 m/s unactuated-scale motion), and past pi the ball-joint spring wraps.
+MAX_TURN_PER_SEGMENT_RAD = 2.0
+
+#: Tightest coil the actuation law is used for, in filament radii (Becker et al. 2022 design range).
+MIN_COIL_RADIUS_RATIO = 3.0
+
+#: Integrators whose joint damping is explicit (its stability limit falls as the damping time grows).
+EXPLICIT_DAMPING = ("euler", "rk4")
+
+
+def envelope_warnings(config: object) -> list[str]:
+    """Warnings for a resolved configuration (anything with `.gripper` and `.numerics`) outside the envelope.
+
+    Checks the timestep against ENVELOPE for the configuration's integrator, equivalent segments and
+    modulus; the point against the range the map covers; the numerics the map did not vary (twist armature,
+    damping time) in their destabilizing direction; and the actuation: rest rotation per segment above
+    MAX_TURN_PER_SEGMENT_RAD, coil radius below MIN_COIL_RADIUS_RATIO filament radii.
+    """
+    gripper, num = config.gripper, config.numerics
+    fil = gripper.filament
+    out = []
+    n_eq, e_eq = equivalent_segments(fil), equivalent_modulus_pa(fil)
+    where = f"{fil.n_segments} segments of {fil.segment_length_m * 1e3:.3g} mm, E = {e_eq / 1e6:.3g} MPa"
+    if not (math.isclose(n_eq, fil.n_segments) and math.isclose(e_eq, fil.youngs_modulus_pa)):
+        where += " (reference-filament equivalent)"
+    dt_max = max_stable_timestep_s(num.integrator, n_eq, e_eq)
+    if dt_max is None:
+        out.append(
+            f"{where} with the {num.integrator} integrator lies outside the measured stability map "
+            f"(up to {max(MAP_SEGMENTS)} reference segments, E up to {max(MAP_MODULI_PA) / 1e6:g} MPa); "
+            "stability is unknown"
+        )
+    elif num.timestep_s > dt_max * (1 + 1e-9):
+        limit = f"{dt_max * 1e3:g} ms" if dt_max > 0 else "none below 0.125 ms"
+        out.append(
+            f"numerics.timestep_s = {num.timestep_s:g} s exceeds the stable envelope of the {num.integrator} "
+            f"integrator for {where} (largest stable timestep measured: {limit})"
+        )
+    base = base_numerics(num.integrator)
+    if num.twist_armature_scale < base.twist_armature_scale:
+        out.append(
+            f"numerics.twist_armature_scale = {num.twist_armature_scale:g} is below the "
+            f"{base.twist_armature_scale:g} the stability map used for {num.integrator}; torsional waves are "
+            "faster and the envelope may not hold"
+        )
+    if num.integrator in EXPLICIT_DAMPING and not num.euler_implicit_damping and (
+        fil.damping_time_s > REFERENCE_FILAMENT.damping_time_s
+    ):
+        out.append(
+            f"filament.damping_time_s = {fil.damping_time_s:g} s is above the "
+            f"{REFERENCE_FILAMENT.damping_time_s:g} s of the stability map; explicit joint damping "
+            f"({num.integrator}) then needs a smaller timestep than the envelope's"
+        )
+    kappa = fil.curvature_per_m(gripper.pressure_pa)
+    turn = kappa * fil.segment_length_m
+    if turn > MAX_TURN_PER_SEGMENT_RAD * (1 + 1e-9):
+        needed = math.ceil(kappa * fil.length_m / MAX_TURN_PER_SEGMENT_RAD)
+        out.append(
+            f"the actuated coil is under-resolved: {turn:.3g} rad of rest rotation per segment "
+            f"(at most {MAX_TURN_PER_SEGMENT_RAD:g}); use at least {needed} segments"
+        )
+    if kappa > 0 and 1.0 / kappa < MIN_COIL_RADIUS_RATIO * fil.outer_radius_m:
+        out.append(
+            f"the actuated coil radius {1e3 / kappa:.3g} mm is below {MIN_COIL_RADIUS_RATIO:g} filament "
+            f"radii ({MIN_COIL_RADIUS_RATIO * fil.outer_radius_m * 1e3:.3g} mm), tighter than the actuation "
+            "law is used for"
+        )
+    return out

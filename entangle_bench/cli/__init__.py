@@ -17,6 +17,7 @@ SUBCOMMANDS: dict[str, str] = {
     "run": "run",
     "tasks": "tasks",
     "objects": "objects",
+    "describe": "describe",
 }
 
 

@@ -14,6 +14,7 @@ from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
 from entangle_bench.results import TrialLog, atomic_write_csv
 from entangle_bench.runner import TrialSpec, make_executor, run_trials
+from entangle_bench.stability import envelope_warnings
 from entangle_bench.suite import TASKS, resolve_config
 
 
@@ -68,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path("results") / header["name"]
     log = TrialLog(out / "trials.jsonl")
     print(f"{header['name']}: {len(specs)} trials -> {out}")
+    for text in dict.fromkeys(w for spec in specs for w in envelope_warnings(spec.config)):
+        print(f"warning: {text}")
     run_trials(
         specs, log, make_executor(args.workers), args.retry_unstable, not args.no_progress, args.record
     )

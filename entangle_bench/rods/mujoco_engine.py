@@ -3,13 +3,18 @@
 The rod is built with exactly the builder the gripper uses, clamped at the case's base frame, started in its
 rest shape, and relaxed with dynamic relaxation (kinetic damping) until every body is at rest. It has
 nothing to touch, so it compiles with collision off.
+
+Equilibrium branch: dynamic relaxation preserves symmetry, so a planar rod started exactly in its plane can
+come to rest on an unstable planar equilibrium (a saddle: curl_hanging with 14-16 or 32 segments stops on a
+branch 0.1 L away from the stable one, with a force residual of 1e-11 N m). `relax_to_stable_equilibrium`
+therefore checks every rest state for stability (the eigenvalues of the finite-difference stiffness matrix)
+and pushes a saddle along its unstable mode before relaxing again.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-
 import mujoco
 import numpy as np
 
@@ -22,6 +27,15 @@ from entangle_bench.scene import step_until_rest
 
 #: Statics need no realistic damping: a long relaxation time with implicit damping settles fastest.
 STATICS_DAMPING_TIME_S = 0.2
+
+#: Push (rad, largest degree of freedom) along an unstable mode to leave a saddle.
+PERTURBATION_RAD = 1e-2
+
+#: An eigenvalue of the stiffness matrix below -this x its largest |eigenvalue| marks a saddle.
+NEGATIVE_STIFFNESS_TOL = 1e-9
+
+#: Largest number of saddles left before giving up.
+MAX_STABILITY_CHECKS = 4
 
 
 def filament_params(case: RodCase, n_segments: int) -> FilamentParams:
@@ -65,6 +79,54 @@ def build_rod(case: RodCase, n_segments: int, numerics: Numerics) -> tuple[mujoc
     return model, handle.qpos_addresses(model), list(handle.body_names)
 
 
+def stiffness_matrix(model: mujoco.MjModel, data: mujoco.MjData, step: float = 1e-6) -> np.ndarray:
+    """Symmetric generalized stiffness -d(qfrc_passive - qfrc_bias)/dq (nv, nv) at rest, N m/rad or N/m.
+
+    Central differences with `step` (rad or m) per degree of freedom, velocities zero; `data` is left at
+    its original state.
+    """
+    qpos0 = data.qpos.copy()
+    data.qvel[:] = 0.0
+    columns = []
+    for j in range(model.nv):
+        forces = []
+        for sign in (1.0, -1.0):
+            direction = np.zeros(model.nv)
+            direction[j] = sign * step
+            data.qpos[:] = qpos0
+            mujoco.mj_integratePos(model, data.qpos, direction, 1.0)
+            mujoco.mj_forward(model, data)
+            forces.append(data.qfrc_passive - data.qfrc_bias)
+        columns.append(-(forces[0] - forces[1]) / (2.0 * step))
+    data.qpos[:] = qpos0
+    mujoco.mj_forward(model, data)
+    stiffness = np.column_stack(columns)
+    return 0.5 * (stiffness + stiffness.T)
+
+
+def relax_to_stable_equilibrium(
+    model: mujoco.MjModel, data: mujoco.MjData, length: float, max_time_s: float
+) -> tuple[bool, int]:
+    """Dynamic relaxation to a stable rest state; return (settled, number of saddles left).
+
+    After each rest the generalized stiffness matrix is checked: a negative eigenvalue means an unstable
+    equilibrium (a saddle), so the state is pushed PERTURBATION_RAD (largest dof) along that mode and
+    relaxed again. `length` (m) scales the rest speed 1e-6 L / 0.3 m/s; `max_time_s` (simulated s)
+    bounds each relaxation.
+    """
+    speed_tol = 1e-6 * length / 0.3
+    for saddles in range(MAX_STABILITY_CHECKS + 1):
+        if not step_until_rest(model, data, max_time_s, speed_tol_m_s=speed_tol, kinetic_damping=True):
+            return False, saddles
+        values, vectors = np.linalg.eigh(stiffness_matrix(model, data))
+        if values[0] >= -NEGATIVE_STIFFNESS_TOL * np.max(np.abs(values)):
+            return True, saddles
+        mode = vectors[:, 0] / np.max(np.abs(vectors[:, 0]))
+        mujoco.mj_integratePos(model, data.qpos, PERTURBATION_RAD * mode, 1.0)
+        data.qvel[:] = 0.0
+    return False, MAX_STABILITY_CHECKS
+
+
 def solve_mujoco(
     case: RodCase,
     preset: str = "balanced",
@@ -76,7 +138,8 @@ def solve_mujoco(
     """Static equilibrium of `case` with the harness filament; centerline at `points` uniform-arclength points.
 
     The preset sets segments and numerics; `n_segments`/`numerics` override them. Statics always use
-    implicit damping (`implicitfast`) so the long relaxation time is stable.
+    implicit damping (`implicitfast`) so the long relaxation time is stable. `max_time_s` bounds each
+    relaxation in simulated seconds.
     """
     chosen = get_preset(preset)
     n = n_segments or chosen.n_segments
@@ -88,25 +151,31 @@ def solve_mujoco(
     model.qpos_spring[adr] = rest
     data = mujoco.MjData(model)
     data.qpos[adr] = rest
+    ids = [model.body(b).id for b in bodies]
+
+    def vertices(d: mujoco.MjData) -> np.ndarray:
+        tip = d.xpos[ids[-1]] + ds * d.xmat[ids[-1]].reshape(3, 3)[:, 0]
+        return np.vstack([d.xpos[ids], tip])
+
     start = time.perf_counter()
-    settled = step_until_rest(model, data, max_time_s, speed_tol_m_s=1e-6 * case.length / 0.3, kinetic_damping=True)
+    settled, saddles = relax_to_stable_equilibrium(model, data, case.length, max_time_s)
     wall = time.perf_counter() - start
     if not settled:
         raise ParameterError(
-            f"rod case {case.name!r} did not reach static equilibrium within {max_time_s} s of simulated "
-            f"time with {n} segments and dt = {statics.timestep_s} s (unstable or too slow)"
+            f"rod case {case.name!r} did not reach a stable static equilibrium within {max_time_s} s of "
+            f"simulated time per relaxation with {n} segments and dt = {statics.timestep_s} s"
         )
-    ids = [model.body(b).id for b in bodies]
-    vertices = np.vstack([data.xpos[ids], data.xpos[ids[-1]] + ds * data.xmat[ids[-1]].reshape(3, 3)[:, 0]])
     return RodResult(
-        centerline=resample_centerline(vertices, points, method="linear"),
+        centerline=resample_centerline(vertices(data), points, method="linear"),
         engine="mujoco",
         wall_time_s=wall,
         settings={
             "preset": preset,
+            "representation": "ball",
             "n_segments": n,
             "timestep_s": statics.timestep_s,
             "integrator": statics.integrator,
             "sim_time_s": data.time,
+            "saddles_left": saddles,
         },
     )

@@ -1,0 +1,189 @@
+"""Runtime watchdog: each check trips on real trouble, with its reason and time, and not on a sound run."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from entangle_bench.watchdog import (
+    Watchdog,
+    WatchdogLimits,
+    WatchdogTripped,
+    body_speeds,
+    mechanical_energy,
+)
+
+
+@pytest.fixture(autouse=True)
+def quiet_mujoco():
+    """MuJoCo prints (and logs to MUJOCO_LOG.TXT) the warnings these tests provoke; silence, then restore."""
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda text: None)
+    yield
+    mujoco.set_mju_user_warning(previous)
+
+
+def pendulum(gravcomp: float = 0.0, box: bool = True) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """A 0.1 kg point-like bob on a 0.5 m hinge, a ground plane and (optionally) a box resting on it."""
+    spec = mujoco.MjSpec()
+    spec.option.timestep = 1e-3
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(1, 1, 0.01))
+    arm = spec.worldbody.add_body(name="arm", pos=(0, 0, 1.0), gravcomp=gravcomp)
+    arm.add_joint(type=mujoco.mjtJoint.mjJNT_HINGE, axis=(0, 1, 0))
+    arm.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=(0.01, 0, 0), pos=(0, 0, -0.5), mass=0.1,
+                 contype=0, conaffinity=0)
+    if box:
+        body = spec.worldbody.add_body(name="box", pos=(0.5, 0, 0.05))
+        body.add_freejoint()
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=(0.05, 0.05, 0.05), mass=0.2)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    data.qpos[0] = 1.0
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def run(model, data, watchdog, seconds):
+    while data.time < seconds - 1e-9:
+        mujoco.mj_step(model, data, nstep=10)
+        watchdog.check(model, data)
+
+
+def test_sound_run_does_not_trip_and_records_its_worst_values():
+    model, data = pendulum(box=False)
+    watchdog = Watchdog(model, data, WatchdogLimits(energy_slack_j=1e-3), actuation_energy_j=0.0)
+    run(model, data, watchdog, 2.0)
+    stats = watchdog.stats
+    assert stats.checks == 200
+    # Bob speed at the bottom: sqrt(2 g l (1 - cos 1 rad)), energy conservation.
+    assert stats.max_speed_m_s == pytest.approx(math.sqrt(2 * 9.81 * 0.5 * (1 - math.cos(1.0))), rel=0.02)
+    assert stats.max_penetration_m == 0.0
+    assert 0.0 < stats.min_energy_margin_j <= 1e-3 + 1e-9
+
+
+def test_body_speeds_match_finite_differences_of_the_centers_of_mass():
+    model, data = pendulum()
+    mujoco.mj_step(model, data, nstep=300)
+    mujoco.mj_forward(model, data)
+    before = data.xipos.copy()
+    speeds = body_speeds(model, data)
+    h = 1e-6
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    model.opt.timestep = h
+    mujoco.mj_step(model, data)
+    mujoco.mj_kinematics(model, data)
+    fd = np.linalg.norm(data.xipos - before, axis=1)[1:] / h
+    assert speeds == pytest.approx(fd, rel=1e-3, abs=1e-6)
+    assert speeds[0] > 1.0  # the moving bob, far from its tree's center of mass frame origin
+
+
+def test_nan_in_the_state_trips_with_reason_and_time():
+    model, data = pendulum()
+    watchdog = Watchdog(model, data, WatchdogLimits(), 0.0)
+    run(model, data, watchdog, 0.1)
+    data.qvel[0] = np.nan
+    with pytest.raises(WatchdogTripped) as info:
+        watchdog.check(model, data)
+    assert info.value.reason == "nan_or_inf_state"
+    assert info.value.time_s == pytest.approx(0.1, abs=0.011)
+
+
+def test_mujoco_warning_counter_trips():
+    """A huge velocity makes MuJoCo raise its bad-qvel/qacc warning; the watchdog reports it by name."""
+    model, data = pendulum()
+    watchdog = Watchdog(model, data, WatchdogLimits(), 0.0)
+    data.qvel[0] = 1e12
+    with pytest.raises(WatchdogTripped) as info:
+        run(model, data, watchdog, 0.1)
+    assert info.value.reason.startswith("mujoco_warning:bad_q")
+
+
+def test_speed_beyond_the_bound_trips():
+    model, data = pendulum()
+    watchdog = Watchdog(model, data, WatchdogLimits(max_speed_m_s=1.0, energy_slack_j=10.0), 0.0)
+    with pytest.raises(WatchdogTripped, match="speed") as info:
+        run(model, data, watchdog, 2.0)
+    assert watchdog.stats.max_speed_m_s > 1.0
+    assert 0.0 < info.value.time_s < 0.5  # the bob passes 1 m/s on its first swing
+
+
+def test_penetration_after_the_grace_time_trips():
+    model, data = pendulum()
+    box = model.jnt_qposadr[model.body_jntadr[model.body("box").id]]
+    data.qpos[box + 2] = 0.05 - 0.01  # 10 mm into the ground
+    mujoco.mj_forward(model, data)
+    limits = WatchdogLimits(max_penetration_m=0.005, grace_time_s=0.5, energy_slack_j=10.0)
+    watchdog = Watchdog(model, data, limits, 0.0)
+    mujoco.mj_step(model, data)
+    watchdog.check(model, data)  # inside the grace time: no check
+    data.qpos[box + 2] = 0.05 - 0.01
+    data.time = 0.6
+    mujoco.mj_forward(model, data)
+    with pytest.raises(WatchdogTripped, match="penetration:10"):
+        watchdog.check(model, data)
+
+
+def test_energy_beyond_the_work_put_in_trips():
+    model, data = pendulum()
+    watchdog = Watchdog(model, data, WatchdogLimits(energy_slack_j=0.01), actuation_energy_j=0.0)
+    run(model, data, watchdog, 0.2)
+    data.qvel[0] *= 1.5  # energy from nowhere, speed still within bounds
+    with pytest.raises(WatchdogTripped, match="energy"):
+        watchdog.check(model, data)
+
+
+def test_buoyancy_potential_makes_energy_conserved():
+    """gravcomp = 3: net upward force 2 m g; kinetic + gravity + buoyancy potential stays constant."""
+    model, data = pendulum(gravcomp=3.0, box=False)
+    energy0 = mechanical_energy(model, data)
+    swing = []
+    while data.time < 1.0:
+        mujoco.mj_step(model, data, nstep=10)
+        swing.append(data.qpos[0])
+        assert mechanical_energy(model, data) == pytest.approx(energy0, abs=1e-6)
+    assert max(swing) > 2.0  # it swung up over the top: the conserved quantity is not trivial
+
+
+def test_mocap_lift_raises_the_bound():
+    """Hub rise and speed add M g H and M v^2 / 2 to the bound."""
+    spec = mujoco.MjSpec()
+    hub = spec.worldbody.add_body(name="hub", pos=(0, 0, 1), mocap=True)
+    hub.add_geom(size=(0.01, 0, 0), contype=0, conaffinity=0)
+    bob = spec.worldbody.add_body(name="bob", pos=(0.2, 0, 1))
+    bob.add_freejoint()
+    bob.add_geom(size=(0.01, 0, 0), mass=0.5, contype=0, conaffinity=0)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    watchdog = Watchdog(model, data, WatchdogLimits(energy_slack_j=0.0), 0.0)
+    bound0 = watchdog.energy_bound_j
+    data.mocap_pos[0, 2] += 0.1
+    data.time += 0.1
+    mujoco.mj_forward(model, data)
+    watchdog.check(model, data)
+    assert watchdog.energy_bound_j - bound0 == pytest.approx(0.5 * 9.81 * 0.1 + 0.5 * 0.5 * 1.0**2)
+
+
+def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so():
+    """Stiff fine filaments at the fast preset's 4 ms: outside the envelope, unstable; at 2 ms, stable."""
+    from entangle_bench.runner import TrialSpec, run_trial
+    from entangle_bench.stability import envelope_warnings
+    from entangle_bench.suite import resolve_config
+    from tests.suite.test_top_drape import SHORT
+
+    stiff = ["gripper.filament.youngs_modulus_pa=1e7", "gripper.pressure_pa=1.72e6",
+             "gripper.filament.n_segments=24"]
+    config = resolve_config("eight_branch_tree", "fast", SHORT + stiff)
+    assert any("timestep" in w for w in envelope_warnings(config))
+    spec = TrialSpec("top_drape/eight_branch_tree", "stiff", config, 0, "fast")
+    row = run_trial(spec)
+    assert row["outcome"] == "unstable" and row["success"] is False and row["failure_mode"] == ""
+    assert row["unstable_reason"] and 0.0 < row["unstable_time_s"] < row["sim_time_s"] + 1e-9
+    assert row["retried_half_timestep"] is False
+    retried = run_trial(spec, retry_unstable=True)
+    assert retried["retried_half_timestep"] is True
+    assert retried["first_unstable_reason"] == row["unstable_reason"]
+    assert retried["outcome"] in ("success", "failure")
