@@ -19,9 +19,10 @@ import os
 import platform
 import sys
 import time
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Protocol
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -159,7 +160,7 @@ def _simulate(
 
 def run_trial(
     spec: TrialSpec,
-    limits: WatchdogLimits = WatchdogLimits(),
+    limits: WatchdogLimits | None = None,
     retry_unstable: bool = False,
     inject_nan_at_s: float | None = None,
     state_dir: Path | None = None,
@@ -173,6 +174,7 @@ def run_trial(
     `record_dir`, the whole trial is recorded there as `<trial_id>.mcap`.
     """
     start = time.perf_counter()
+    limits = limits or WatchdogLimits()
     recorder = None
     if record_dir is not None:
         recorder = TrialRecorder(

@@ -96,6 +96,8 @@ def probe(
             watchdog.check(model, data)
     except WatchdogTripped as exc:
         reason = exc.reason
+    except mujoco.FatalError as exc:  # e.g. an exploding state overflowing the constraint arena
+        reason = "mujoco_error:" + str(exc).splitlines()[0]
     return ProbeResult(
         stable=not reason,
         reason=reason,
@@ -111,7 +113,7 @@ def probe(
 INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 MAP_SEGMENTS = (8, 12, 16, 24, 40, 64, 96)
 MAP_MODULI_PA = (0.05e6, 0.2e6, 1e6, 3e6, 10e6, 30e6)
-MAP_TIMESTEPS_S = (0.125e-3, 0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3)
+MAP_TIMESTEPS_S = (0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3)
 
 #: Largest timestep (s) at which the probe was stable, and every smaller one too, measured by
 #: `scripts/stability_map.py` (results/stability/stability_map.csv): integrator -> segments -> one value per
@@ -264,7 +266,7 @@ def envelope_warnings(config: object) -> list[str]:
             "stability is unknown"
         )
     elif num.timestep_s > dt_max * (1 + 1e-9):
-        limit = f"{dt_max * 1e3:g} ms" if dt_max > 0 else "none below 0.125 ms"
+        limit = f"{dt_max * 1e3:g} ms" if dt_max > 0 else f"none down to {min(MAP_TIMESTEPS_S):g} s"
         out.append(
             f"numerics.timestep_s = {num.timestep_s:g} s exceeds the stable envelope of the {num.integrator} "
             f"integrator for {where} (largest stable timestep measured: {limit})"
@@ -299,3 +301,14 @@ def envelope_warnings(config: object) -> list[str]:
             "law is used for"
         )
     return out
+
+
+def stable_timestep_s(config: object) -> float | None:
+    """Largest timestep of the measured envelope for a configuration's integrator and filament, s.
+
+    None when the configuration lies outside the map.
+    """
+    fil = config.gripper.filament
+    return max_stable_timestep_s(
+        config.numerics.integrator, equivalent_segments(fil), equivalent_modulus_pa(fil)
+    )

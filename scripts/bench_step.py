@@ -27,7 +27,7 @@ def measure(config: SceneConfig, sim_time_s: float) -> tuple[float, bool]:
     steps = int(round(sim_time_s / model.opt.timestep))
     per_update = max(1, int(round(0.01 / model.opt.timestep)))
     start = time.perf_counter()
-    for k in range(0, steps, per_update):
+    for _ in range(0, steps, per_update):
         pressure = config.gripper.pressure_pa * min(1.0, data.time / (0.5 * sim_time_s))
         scene.gripper.set_pressure(model, pressure, angles)
         mujoco.mj_step(model, data, per_update)
@@ -41,7 +41,8 @@ def row(label: str, config: SceneConfig, sim_time_s: float) -> str:
     dt = config.numerics.timestep_s
     n = config.gripper.filament.n_segments
     rtf = dt / per_step
-    return f"| {label} | {n} | {dt * 1e3:g} | {config.numerics.integrator} | {per_step * 1e6:.0f} | {rtf:.2f} | {'yes' if ok else 'NO'} |"
+    cells = [label, n, f"{dt * 1e3:g}", config.numerics.integrator, f"{per_step * 1e6:.0f}", f"{rtf:.2f}"]
+    return "| " + " | ".join(map(str, cells + ["yes" if ok else "NO"])) + " |"
 
 
 def main() -> None:

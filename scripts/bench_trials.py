@@ -28,7 +28,8 @@ def main() -> None:
     config = resolve_config("eight_branch_tree", args.preset)
     print(f"machine: {platform.machine()} python {platform.python_version()} mujoco {mujoco.__version__}; "
           f"default eight_branch_tree trial, preset {args.preset}")
-    print("| workers | trials | wall (s) | mean wall per trial (s) | sim time per trial (s) | real-time factor | trials per hour |")
+    print("| workers | trials | wall (s) | mean wall per trial (s) | sim time per trial (s) | real-time factor "
+          "| trials per hour |")
     print("|---|---|---|---|---|---|---|")
     for workers in (1, 2):
         specs = [

@@ -1,6 +1,6 @@
 """Stability map: Young's modulus x timestep x segments for every integrator, as CSV and PNG.
 
-Usage: python scripts/stability_map.py [--out results/stability] [--full] [--duration 1.0]
+Usage: python scripts/stability_map.py [--out results/stability] [--full] [--duration 0.6]
 
 Each point is one `entangle_bench.stability.probe` of `stability.MAP_GRIPPER`: three reference filaments
 (300 mm, r = 0.7 mm) 8.7 mm apart, every contact effect on, hanging in air from a fixed hub, every joint
@@ -149,7 +149,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("results/stability"))
     parser.add_argument("--full", action="store_true", help="run every point (no inferred points)")
-    parser.add_argument("--duration", type=float, default=1.0, help="simulated seconds per probe")
+    parser.add_argument("--duration", type=float, default=0.6, help="simulated seconds per probe")
     parser.add_argument("--integrators", nargs="+", default=list(stability.INTEGRATORS))
     parser.add_argument("--segments", nargs="+", type=int, default=list(stability.MAP_SEGMENTS))
     parser.add_argument("--moduli", nargs="+", type=float, default=list(stability.MAP_MODULI_PA))

@@ -17,6 +17,8 @@ SUBCOMMANDS: dict[str, str] = {
     "run": "run",
     "tasks": "tasks",
     "objects": "objects",
+    "rod": "rod",
+    "compare": "compare",
     "describe": "describe",
 }
 

@@ -38,8 +38,10 @@ NEGATIVE_STIFFNESS_TOL = 1e-9
 MAX_STABILITY_CHECKS = 4
 
 
-def filament_params(case: RodCase, n_segments: int) -> FilamentParams:
-    """A solid filament with the case's geometry and material."""
+def filament_params(
+    case: RodCase, n_segments: int, damping_time_s: float = STATICS_DAMPING_TIME_S
+) -> FilamentParams:
+    """A solid filament with the case's geometry and material; joint damping time `damping_time_s` (s)."""
     return FilamentParams(
         length_m=case.length,
         outer_radius_m=case.radius,
@@ -49,12 +51,20 @@ def filament_params(case: RodCase, n_segments: int) -> FilamentParams:
         poisson_ratio=case.poisson_ratio,
         density_kg_m3=case.density,
         n_segments=n_segments,
-        damping_time_s=STATICS_DAMPING_TIME_S,
+        damping_time_s=damping_time_s,
     )
 
 
-def build_rod(case: RodCase, n_segments: int, numerics: Numerics) -> tuple[mujoco.MjModel, np.ndarray, list[str]]:
-    """Compile the clamped rod; return the model, its qpos addresses (n, 4) and body names."""
+def build_rod(
+    case: RodCase,
+    n_segments: int,
+    numerics: Numerics,
+    damping_time_s: float = STATICS_DAMPING_TIME_S,
+) -> tuple[mujoco.MjModel, np.ndarray, list[str]]:
+    """Compile the clamped rod; return the model, its qpos addresses (n, 4) and body names.
+
+    `damping_time_s` (s) is the joints' Kelvin-Voigt relaxation time (statics default: 0.2 s).
+    """
     spec = mujoco.MjSpec()
     numerics.apply(spec)
     spec.option.gravity = case.gravity
@@ -62,7 +72,7 @@ def build_rod(case: RodCase, n_segments: int, numerics: Numerics) -> tuple[mujoc
     mujoco.mju_mat2Quat(quat, case.base_frame.flatten())
     handle = add_filament(
         spec.worldbody,
-        filament_params(case, n_segments),
+        filament_params(case, n_segments, damping_time_s),
         0,
         pos=case.base_position,
         quat=tuple(quat),

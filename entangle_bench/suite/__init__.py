@@ -9,8 +9,8 @@ configuration factory and tags; duplicates raise, unknown names raise an error l
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable, Iterable
 
 from dm_control.rl import control
 

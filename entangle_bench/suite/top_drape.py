@@ -23,7 +23,6 @@ from dm_env import specs
 
 from entangle_bench import effects as fx
 from entangle_bench.config import check_range
-from entangle_bench.errors import ParameterError
 from entangle_bench.gripper import GripperParams, bending_angles
 from entangle_bench.metrics.contacts import KINDS, classify_geom_pairs
 from entangle_bench.presets import Numerics

@@ -1,0 +1,113 @@
+"""The harness filament (ball-joint chain) at static equilibrium against analytic, BVP and PyElastica answers.
+
+Errors are max |x - x_ref| / L over the centerline at uniform arclength; measured values (in comments) were
+taken with the presets of entangle_bench/presets.py.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from entangle_bench.errors import ParameterError
+from entangle_bench.presets import get_preset
+from entangle_bench.rods import analytic as an
+from entangle_bench.rods.case import centerline_error, load_case
+from entangle_bench.rods.elastica_engine import solve_elastica
+from entangle_bench.rods.mujoco_engine import build_rod, solve_mujoco, stiffness_matrix
+
+CASE_DIR = Path(__file__).resolve().parents[2] / "tasks" / "rod_cases"
+
+
+def _case(name: str):
+    return load_case(CASE_DIR / f"{name}.json")
+
+
+def test_arc_within_one_percent_at_accurate():
+    # Issue requirement: closed-form arc within 1 % of L with the accurate preset (measured 2.3e-4).
+    case = _case("arc_zero_gravity")
+    result = solve_mujoco(case, "accurate")
+    error, _ = centerline_error(result.centerline, an.rest_centerline(case), case.length)
+    assert error < 0.01
+    assert result.settings["n_segments"] == get_preset("accurate").n_segments
+
+
+def test_stiff_cantilever_within_two_percent_of_small_deflection_formula():
+    # Issue requirement: tip drop q L^4 / (8 E I) within 2 % (measured 0.9 %, of which 0.7 % is the
+    # formula's own linearisation), at the default preset.
+    case = _case("stiff_cantilever")
+    result = solve_mujoco(case)
+    drop = case.base_position[2] - result.centerline[-1, 2]
+    assert drop == pytest.approx(an.small_deflection_tip(case), rel=0.02)
+
+
+def test_soft_cantilever_within_three_percent_of_pyelastica_at_balanced():
+    # Issue requirement: 3 % of L against PyElastica at balanced (measured 1.5e-3 against 50 elements;
+    # 12 elements are themselves within 3e-3 L of the elastica BVP).
+    case = _case("soft_cantilever")
+    mujoco_result = solve_mujoco(case, "balanced")
+    reference = solve_elastica(case, 12)
+    error, _ = centerline_error(mujoco_result.centerline, reference.centerline, case.length)
+    assert error < 0.03
+    assert error > 1e-5  # two different discretizations: a zero here would mean one was not run
+
+
+def test_chain_converges_at_second_order_on_the_arc():
+    # Halving the segment length must cut the error about 4x (measured 1.46e-3 -> 3.7e-4).
+    case = _case("arc_zero_gravity")
+    exact = an.rest_centerline(case)
+    errors = [
+        centerline_error(solve_mujoco(case, n_segments=n).centerline, exact, case.length)[0]
+        for n in (16, 32)
+    ]
+    assert 3.0 < errors[0] / errors[1] < 5.0
+
+
+def test_hanging_curl_leaves_the_unstable_planar_branch():
+    # 16 segments used to stop on a saddle 0.1 L from the BVP answer; with the stability check it reaches
+    # the stable branch (measured 6.0e-3) and records that it had to leave a saddle.
+    case = _case("curl_hanging")
+    result = solve_mujoco(case, "balanced")
+    error, _ = centerline_error(result.centerline, an.planar_elastica_centerline(case), case.length)
+    assert error < 0.012
+    assert result.settings["saddles_left"] >= 1
+
+
+def test_isotropic_twist_spring_explains_the_sideways_curl_error():
+    # The ball joint has one stiffness, E I / ds, also for twist. With nu = 0 (G J = E I) the chain agrees
+    # with the 3D Kirchhoff BVP to 4e-4 L at 32 segments; with nu = 0.5 it stays 6e-2 L off.
+    case = _case("curl_sideways_gravity")
+    isotropic = dataclasses.replace(case, poisson_ratio=0.0)
+    error_iso, _ = centerline_error(
+        solve_mujoco(isotropic, n_segments=32).centerline,
+        an.kirchhoff_centerline(isotropic),
+        case.length,
+    )
+    error_real, _ = centerline_error(
+        solve_mujoco(case, n_segments=32).centerline, an.kirchhoff_centerline(case), case.length
+    )
+    assert error_iso < 1e-3
+    assert error_real > 0.03
+
+
+def test_stiffness_matrix_of_straight_rod_is_the_joint_stiffness():
+    # Zero gravity, straight rest shape: the generalized stiffness is diagonal with 2 EI/ds at the clamp
+    # and EI/ds elsewhere, for all three rotational dofs (isotropic ball springs).
+    case = dataclasses.replace(_case("soft_cantilever"), gravity=(0.0, 0.0, 0.0))
+    n = 5
+    model, _, _ = build_rod(case, n, get_preset("balanced").numerics)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    k = case.bending_stiffness / (case.length / n)
+    expected = np.diag(np.repeat([2 * k] + [k] * (n - 1), 3))
+    np.testing.assert_allclose(stiffness_matrix(model, data), expected, rtol=1e-6, atol=1e-6 * k)
+
+
+def test_unsettled_rod_raises_naming_the_case():
+    case = _case("soft_cantilever")
+    with pytest.raises(ParameterError, match="soft_cantilever"):
+        solve_mujoco(case, max_time_s=0.05)

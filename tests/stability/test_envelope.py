@@ -1,0 +1,82 @@
+"""The stability envelope: table lookups, warnings, and the table re-measured against the engine."""
+
+import dataclasses
+
+import pytest
+
+from entangle_bench import stability
+from entangle_bench.filament import FilamentParams
+from entangle_bench.presets import PRESETS, get_preset
+from entangle_bench.scene import SceneConfig
+from entangle_bench.suite import TASKS, resolve_config
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_every_task_at_every_preset_is_inside_its_envelope(preset):
+    for task in TASKS.names():
+        assert stability.envelope_warnings(resolve_config(task, preset)) == [], task
+
+
+def test_every_preset_timestep_is_inside_the_measured_table():
+    for name, summary in stability.preset_envelopes().items():
+        assert summary["max_timestep_s"] >= summary["timestep_s"], name
+        assert summary["max_modulus_pa"] >= 1e6 and summary["max_segments"] >= summary["n_segments"]
+
+
+def test_lookup_is_conservative_between_measured_points():
+    """Between grid points the finer segmentation and the stiffer modulus decide."""
+    table = {"euler": {12: (8e-3, 4e-3, 2e-3), 24: (4e-3, 2e-3, 1e-3)}}
+    moduli = stability.MAP_MODULI_PA[:3]
+    assert stability.max_stable_timestep_s("euler", 12, moduli[1], table) == 4e-3
+    assert stability.max_stable_timestep_s("euler", 13, moduli[1], table) == 2e-3
+    assert stability.max_stable_timestep_s("euler", 12, moduli[1] * 1.01, table) == 2e-3
+    assert stability.max_stable_timestep_s("euler", 25, moduli[0], table) is None
+    assert stability.max_stable_timestep_s("euler", 12, moduli[2] * 1.01, table) is None
+    assert stability.max_stable_timestep_s("rk4", 12, moduli[0], table) is None
+
+
+def test_equivalent_filament_maps_geometry_onto_the_reference():
+    """Half the length at the same segment length is the same row; EI/(rho A) fixes the modulus."""
+    ref = stability.REFERENCE_FILAMENT
+    short = FilamentParams(length_m=ref.length_m / 2, n_segments=ref.n_segments // 2)
+    assert stability.equivalent_segments(short) == pytest.approx(ref.n_segments)
+    denser = FilamentParams(density_kg_m3=2 * ref.density_kg_m3, youngs_modulus_pa=2e6)
+    assert stability.equivalent_modulus_pa(denser) == pytest.approx(1e6)
+
+
+def warnings_for(preset, overrides):
+    return stability.envelope_warnings(resolve_config("eight_branch_tree", preset, overrides))
+
+
+def test_out_of_envelope_settings_are_named():
+    assert any("timestep" in w and "euler" in w for w in warnings_for(
+        "fast", ["gripper.filament.youngs_modulus_pa=3e7", "gripper.filament.n_segments=64"]))
+    assert any("outside the measured stability map" in w
+               for w in warnings_for("fast", ["gripper.filament.n_segments=400"]))
+    assert any("twist_armature_scale" in w for w in warnings_for("fast", ["numerics.twist_armature_scale=10"]))
+    assert any("damping_time_s" in w for w in warnings_for("fast", ["gripper.filament.damping_time_s=0.1"]))
+    under = warnings_for("balanced", ["gripper.pressure_pa=5e5"])
+    assert any("under-resolved" in w and "use at least" in w for w in under)
+    assert any("below 3 filament radii" in w for w in warnings_for("balanced", ["gripper.pressure_pa=1.5e6"]))
+    # Implicit integration keeps stiff fine filaments inside the envelope.
+    assert warnings_for("accurate", ["gripper.filament.youngs_modulus_pa=1e7"]) == []
+
+
+def map_point(integrator, n_segments, modulus_pa, timestep_s):
+    """The stability map's probe configuration at one point."""
+    ref = stability.REFERENCE_FILAMENT
+    filament = dataclasses.replace(
+        ref, youngs_modulus_pa=modulus_pa, n_segments=n_segments,
+        curvature_calibration=ref.calibration * modulus_pa / ref.youngs_modulus_pa,
+    )
+    numerics = dataclasses.replace(stability.base_numerics(integrator), timestep_s=timestep_s)
+    return SceneConfig(gripper=dataclasses.replace(stability.MAP_GRIPPER, filament=filament), numerics=numerics)
+
+
+def test_table_boundary_remeasured():
+    """Euler, 24 segments, E = 10 MPa: stable at the table's timestep, unstable at twice it (other seeds)."""
+    limit = stability.max_stable_timestep_s("euler", 24, 10e6)
+    assert 0 < limit < get_preset("fast").numerics.timestep_s
+    for seed in (3, 4):
+        assert stability.probe(map_point("euler", 24, 10e6, limit), seed=seed, duration_s=0.6).stable
+    assert not stability.probe(map_point("euler", 24, 10e6, 2 * limit), seed=3, duration_s=0.6).stable
