@@ -1,18 +1,19 @@
 """Physical effects a scene declares; the compiled model contains only those.
 
-Collision groups use MuJoCo's contype/conaffinity bit masks: each geom's contype is its own group bit and its
-conaffinity is the set of groups it may touch, so two geoms collide only if the declared effects allow the pair
-(MuJoCo collides a pair when contype1 & conaffinity2 or contype2 & conaffinity1 is non-zero); a group that
-may touch nothing gets contype = conaffinity = 0 and leaves the broad phase altogether. Finer rules
-(self-contact, filaments that can never reach each other) become explicit body excludes or explicit pairs.
-Adjacent segments of a filament never collide: MuJoCo's parent filter drops parent-child body pairs. The hub
-has no collision geom (contype = conaffinity = 0), so nothing is ever tested against it.
+Collision groups use MuJoCo's contype/conaffinity bit masks: each geom's contype is its own group
+bit and its conaffinity is the set of groups it may touch, so two geoms collide only if the declared
+effects allow the pair (MuJoCo collides a pair when contype1 & conaffinity2 or contype2 &
+conaffinity1 is non-zero); a group that may touch nothing gets contype = conaffinity = 0 and leaves
+the broad phase altogether. Finer rules (self-contact, filaments that can never reach each other)
+become explicit body excludes or explicit pairs. Adjacent segments of a filament never collide:
+MuJoCo's parent filter drops parent-child body pairs. The hub has no collision geom (contype =
+conaffinity = 0), so nothing is ever tested against it.
 
-Engine stages nobody needs are switched off with disable flags (gravity, contact, the whole constraint
-stage when nothing can constrain, friction loss, limits, equality, actuation, damping), and the fluid
-model is compiled in only for aquatic scenes. MuJoCo's fluid models give drag and lift but no buoyancy
-(MuJoCo documentation, "Fluid forces"); buoyancy is added as gravity compensation, an upward force
-rho_medium V g at each body's center of mass (`body_gravcomp` = rho_medium V / m).
+Engine stages nobody needs are switched off with disable flags (gravity, contact, the whole
+constraint stage when nothing can constrain, friction loss, limits, equality, actuation, damping),
+and the fluid model is compiled in only for aquatic scenes. MuJoCo's fluid models give drag and lift
+but no buoyancy (MuJoCo documentation, "Fluid forces"); buoyancy is added as gravity compensation,
+an upward force rho_medium V g at each body's center of mass (`body_gravcomp` = rho_medium V / m).
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ class Effects:
     cone: Literal["pyramidal", "elliptic"] = "pyramidal"
     joint_damping: bool = True
     aquatic: bool = False
-    """Immerse the scene in a fluid: buoyancy plus MuJoCo's ellipsoid fluid model (drag, lift, added mass)."""
+    """Immerse the scene in a fluid: buoyancy plus MuJoCo's ellipsoid fluid model (drag, lift)."""
     medium_density_kg_m3: float = 1000.0
     medium_viscosity_pa_s: float = 1.0e-3
 
@@ -131,7 +132,7 @@ def affinity(effects: Effects) -> dict[int, int]:
 
 
 def submerged_weight_fraction(filament: FilamentParams, effects: Effects) -> float:
-    """Net weight of the filament in its medium over its weight in vacuum (1 in air, < 0 if it floats).
+    """Net weight of the filament in its medium over its weight in vacuum (1 in air, < 0: floats).
 
     The sealed channel holds the actuation gas, so the filament displaces its whole outer volume.
     """
@@ -142,10 +143,11 @@ def submerged_weight_fraction(filament: FilamentParams, effects: Effects) -> flo
 
 
 def gravity_length_m(filament: FilamentParams, effects: Effects) -> float:
-    """Elasto-gravity length l_g = (EI / (|Delta(rho A)| g))^(1/3) in the scene's medium, m (inf: no gravity).
+    """Elasto-gravity length l_g = (EI / (|Delta(rho A)| g))^(1/3) in the scene's medium, m.
 
-    With a solid section this is the l_g = (E r^2 / (Delta rho g))^(1/3) scaling of the reference
-    design (Becker et al., PNAS 2022); l / l_g measures how much the filament droops under its net weight.
+    Infinite without gravity or net weight. With a solid section this is the
+    l_g = (E r^2 / (Delta rho g))^(1/3) scaling of the reference design (Becker et al., PNAS 2022);
+    l / l_g measures how much the filament droops under its net weight.
     """
     net = abs(submerged_weight_fraction(filament, effects)) * filament.linear_density_kg_m
     if not effects.gravity or net == 0.0:
@@ -162,13 +164,14 @@ def apply_effects(
     filament_reach_m: float,
     body_volumes_m3: Mapping[str, float] | None = None,
 ) -> None:
-    """Set collision masks, friction model, excludes, disable flags and fluid on an assembled `spec`.
+    """Set collision masks, friction model, excludes, disable flags and fluid on a `spec`.
 
-    `geom_group` maps every colliding geom name to GROUND, OBJECT or FILAMENT; other geoms never collide.
-    `filament_bodies[i]` lists filament i's segment bodies root to tip; `filament_roots_m` (F, 2) the root
-    positions; two filaments whose roots are more than 2 * `filament_reach_m` apart can never touch.
-    `body_volumes_m3` gives the displaced volume of bodies (m^3) for buoyancy in aquatic scenes; bodies not
-    listed use the sum of their collision geoms' volumes (filament segments: the cylinder of the chain).
+    `geom_group` maps every colliding geom name to GROUND, OBJECT or FILAMENT; other geoms never
+    collide. `filament_bodies[i]` lists filament i's segment bodies root to tip; `filament_roots_m`
+    (F, 2) the root positions; two filaments whose roots are more than 2 * `filament_reach_m` apart
+    can never touch. `body_volumes_m3` gives the displaced volume of bodies (m^3) for buoyancy in
+    aquatic scenes; bodies not listed use the sum of their collision geoms' volumes (filament
+    segments: the cylinder of the chain).
     """
     masks = affinity(effects)
     condim = CONDIM[effects.friction]
@@ -189,9 +192,7 @@ def apply_effects(
         for bodies in filament_bodies:
             for j in range(len(bodies)):
                 for k in range(j + 2, len(bodies)):
-                    spec.add_pair(
-                        geomname1=_geom_of(bodies[j]), geomname2=_geom_of(bodies[k]), condim=condim
-                    )
+                    _add_filament_pair(spec, _geom_of(bodies[j]), _geom_of(bodies[k]), condim)
     if effects.filament_filament_contact:
         for a in range(len(filament_bodies)):
             for b in range(a + 1, len(filament_bodies)):
@@ -202,7 +203,9 @@ def apply_effects(
                             spec.add_exclude(bodyname1=ba, bodyname2=bb)
     opt = spec.option
     opt.cone = (
-        mujoco.mjtCone.mjCONE_ELLIPTIC if effects.cone == "elliptic" else mujoco.mjtCone.mjCONE_PYRAMIDAL
+        mujoco.mjtCone.mjCONE_ELLIPTIC
+        if effects.cone == "elliptic"
+        else mujoco.mjtCone.mjCONE_PYRAMIDAL
     )
     opt.disableflags |= _unused_stages(spec, effects)
     if effects.aquatic:
@@ -276,7 +279,11 @@ def _geom_volume_m3(spec: mujoco.MjSpec, geom: mujoco.MjsGeom, chain_segment: bo
         return 4.0 / 3.0 * math.pi * size[0] ** 3
     if geom.type in (t.mjGEOM_CAPSULE, t.mjGEOM_CYLINDER):
         cylinder = math.pi * size[0] ** 2 * _segment_length(geom)
-        cap = 0.0 if chain_segment or geom.type == t.mjGEOM_CYLINDER else 4.0 / 3.0 * math.pi * size[0] ** 3
+        cap = (
+            0.0
+            if chain_segment or geom.type == t.mjGEOM_CYLINDER
+            else 4.0 / 3.0 * math.pi * size[0] ** 3
+        )
         return cylinder + cap
     if geom.type == t.mjGEOM_BOX:
         return 8.0 * float(np.prod(size))
@@ -289,19 +296,39 @@ def _geom_volume_m3(spec: mujoco.MjSpec, geom: mujoco.MjsGeom, chain_segment: bo
     raise TypeError(f"no volume for geom {geom.name!r} of type {geom.type}")
 
 
+def _add_filament_pair(spec: mujoco.MjSpec, name1: str, name2: str, condim: int) -> None:
+    """Explicit contact pair with the material of its first geom (friction, solref, solimp, margin).
+
+    An explicit pair does not inherit geom parameters in MuJoCo, so they are copied here: set the
+    geoms' material before calling `apply_effects`.
+    """
+    geom = spec.geom(name1)
+    sliding, torsional, rolling = geom.friction
+    spec.add_pair(
+        geomname1=name1,
+        geomname2=name2,
+        condim=condim,
+        friction=(sliding, sliding, torsional, rolling, rolling),
+        solref=geom.solref,
+        solimp=geom.solimp,
+        margin=geom.margin,
+        gap=geom.gap,
+    )
+
+
 def _geom_of(body: str) -> str:
     """Capsule geom name of a filament segment body (`fII_bJJJ` -> `fII_gJJJ`)."""
     return body.replace("_b", "_g", 1)
 
 
 def collision_pairs(model: mujoco.MjModel) -> list[tuple[int, int]]:
-    """Every geom pair the compiled model can ever test for contact (masks, filters, excludes, pairs).
+    """Every geom pair the compiled model can ever test for contact.
 
-    Mirrors MuJoCo's collision driver (engine_collision_driver.c): no pairs when contact or the constraint
-    stage is disabled; a dynamic pair needs compatible contype/conaffinity, bodies in different weld groups,
-    no parent-child relation between the weld groups (unless the parent filter is off, and never with the
-    world) and no body exclude, whose signature is (min(body1, body2) << 16) + max(body1, body2) on the
-    geoms' own bodies. Explicit pairs are always tested.
+    Mirrors MuJoCo's collision driver (engine_collision_driver.c): no pairs when contact or the
+    constraint stage is disabled; a dynamic pair needs compatible contype/conaffinity, bodies in
+    different weld groups, no parent-child relation between the weld groups (unless the parent
+    filter is off, and never with the world) and no body exclude, whose signature is (min(body1,
+    body2) << 16) + max(body1, body2) on the geoms' own bodies. Explicit pairs are always tested.
     """
     disabled = model.opt.disableflags
     if disabled & (mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):

@@ -1,12 +1,12 @@
-"""Numerical stability: a watchdog probe of filaments actuating in air, and the measured stable envelope.
+"""Numerical stability: a watchdog probe of filaments curling in air, and the measured envelope.
 
-`probe` runs a gripper (no object) hanging from a fixed hub: random joint perturbations, a pressure ramp to
-the configured pressure, a hold, all under the runtime watchdog with an energy bound scaled to the gripper's
-own energy. `scripts/stability_map.py` sweeps it over Young's modulus x timestep x segments for every
-integrator with a small array that touches itself (MAP_GRIPPER: three filaments 8.7 mm apart, every contact
-effect on, since filament contact halves the stable timestep of stiff filaments compared with a lone rod);
-the boundary is recorded in ENVELOPE below, and `envelope_warnings` compares a resolved configuration
-against it before a run.
+`probe` runs a gripper (no object) hanging from a fixed hub: random joint perturbations, a pressure
+ramp to the configured pressure, a hold, all under the runtime watchdog with an energy bound scaled
+to the gripper's own energy. `scripts/stability_map.py` sweeps it over Young's modulus x timestep x
+segments for every integrator with a small array that touches itself (MAP_GRIPPER: three filaments
+8.7 mm apart, every contact effect on, since filament contact halves the stable timestep of stiff
+filaments compared with a lone rod); the boundary is recorded in ENVELOPE below, and
+`envelope_warnings` compares a resolved configuration against it before a run.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from entangle_bench.filament import FilamentParams
+from entangle_bench.filament import REFERENCE_PRESSURE_PA, FilamentParams
 from entangle_bench.gripper import GripperParams, bending_angles
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS, Numerics, get_preset
 from entangle_bench.scene import SceneConfig, build_scene
@@ -28,8 +28,8 @@ from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, Wat
 #: The filament the stability map was measured with (the reference design).
 REFERENCE_FILAMENT = FilamentParams()
 
-#: Layout of the stability map: three filaments on a 10 mm circle (8.7 mm apart), close enough to coil
-#: into each other, with every contact effect of the default Effects on.
+#: Layout of the stability map: three filaments on a 10 mm circle (8.7 mm apart), close enough to
+#: coil into each other, with every contact effect of the default Effects on.
 MAP_GRIPPER = GripperParams(filament=REFERENCE_FILAMENT, ring_diameters_m=(0.01,), ring_counts=(3,))
 
 
@@ -47,18 +47,22 @@ class ProbeResult:
 
 
 def actuation_energy_j(config: SceneConfig) -> float:
-    """Bending energy 0.5 EI kappa^2 L of all filaments at full pressure, J (the watchdog's W_act)."""
+    """Bending energy 0.5 EI kappa^2 L of all filaments at full pressure, J (watchdog's W_act)."""
     fil = config.gripper.filament
     kappa = fil.curvature_per_m(config.gripper.pressure_pa)
     return config.gripper.n_filaments * 0.5 * fil.bending_stiffness_nm2 * kappa**2 * fil.length_m
 
 
 def probe_limits(config: SceneConfig) -> WatchdogLimits:
-    """Watchdog bounds for a probe: 10 m/s, and an energy slack of 10 % of the gripper's actuation plus
-    lifting energy (the trial default, 0.05 J, would hide the blow-up of a few light filaments)."""
+    """Watchdog bounds for a probe: 10 m/s, energy slack 10 % of actuation plus lifting energy, J.
+
+    The trial default slack, 0.05 J, would hide the blow-up of a few light filaments.
+    """
     fil = config.gripper.filament
     lift = config.gripper.n_filaments * fil.mass_kg * 9.81 * fil.length_m
-    return WatchdogLimits(max_speed_m_s=10.0, energy_slack_j=0.1 * (actuation_energy_j(config) + lift))
+    return WatchdogLimits(
+        max_speed_m_s=10.0, energy_slack_j=0.1 * (actuation_energy_j(config) + lift)
+    )
 
 
 def probe(
@@ -70,7 +74,7 @@ def probe(
     check_every_s: float = 0.01,
     limits: WatchdogLimits | None = None,
 ) -> ProbeResult:
-    """Run the gripper of `config` (object ignored) hanging at z = 0.5 m: ramp, hold, watchdog; s, rad."""
+    """Run the gripper of `config` (no object) hung at z = 0.5 m: ramp, hold, watchdog; s, rad."""
     config = dataclasses.replace(config, object_name=None, object_params=None)
     scene = build_scene(config, hub_pos=(0.0, 0.0, 0.5))
     model = scene.model
@@ -107,7 +111,7 @@ def probe(
     )
 
 
-# ---------------------------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------------------
 # The measured envelope
 
 INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
@@ -115,17 +119,19 @@ MAP_SEGMENTS = (8, 12, 16, 24, 40, 64, 96)
 MAP_MODULI_PA = (0.05e6, 0.2e6, 1e6, 3e6, 10e6, 30e6)
 MAP_TIMESTEPS_S = (0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3)
 
-#: Largest timestep (s) at which the probe was stable, and every smaller one too, measured by
-#: `scripts/stability_map.py` (results/stability/stability_map.csv): integrator -> segments -> one value per
-#: modulus of MAP_MODULI_PA. The map holds the reference filament (L = 300 mm), so a configuration is looked
-#: up by its equivalent segment count L_ref / ds and its equivalent modulus (same EI / (rho A)).
+#: Largest timestep (s) at which the probe was stable, and every smaller one too (0: none down to
+#: 0.25 ms), measured by `scripts/stability_map.py` (results/stability/stability_map.csv;
+#: MAP_GRIPPER, 0.6 s probes, each integrator with `base_numerics`): integrator -> segments -> one
+#: value per modulus of MAP_MODULI_PA. 8 ms is the largest timestep measured, not a limit found. The
+#: map holds the reference filament (L = 300 mm), so a configuration is looked up by its equivalent
+#: segment count L_ref / ds and its equivalent modulus (same EI / (rho A)).
 ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
     "euler": {
         8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.004),
-        12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.002),
+        12: (0.008, 0.008, 0.008, 0.008, 0.004, 0.002),
         16: (0.008, 0.008, 0.008, 0.008, 0.004, 0.001),
-        24: (0.008, 0.008, 0.008, 0.004, 0.002, 0.0005),
-        40: (0.008, 0.008, 0.004, 0.002, 0.0005, 0.000125),
+        24: (0.008, 0.008, 0.008, 0.004, 0.001, 0.0005),
+        40: (0.008, 0.008, 0.004, 0.002, 0.0005, 0),
         64: (0.008, 0.008, 0.002, 0.0005, 0.00025, 0),
         96: (0.008, 0.004, 0.001, 0.00025, 0, 0),
     },
@@ -150,16 +156,17 @@ ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
     "rk4": {
         8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
         12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.004),
-        16: (0.008, 0.008, 0.008, 0.008, 0.008, 0.002),
+        16: (0.008, 0.008, 0.008, 0.008, 0.004, 0.002),
         24: (0.008, 0.008, 0.008, 0.008, 0.002, 0.0005),
-        40: (0.008, 0.008, 0.008, 0.002, 0.001, 0.00025),
-        64: (0.008, 0.008, 0.004, 0.001, 0.00025, 0.000125),
-        96: (0.008, 0.008, 0.001, 0.0005, 0.000125, 0),
+        40: (0.008, 0.008, 0.008, 0.002, 0.0005, 0.00025),
+        64: (0.008, 0.008, 0.004, 0.001, 0.00025, 0),
+        96: (0.008, 0.008, 0.001, 0.0005, 0, 0),
     },
 }
 
+
 def base_numerics(integrator: str) -> Numerics:
-    """Numerics the map uses for `integrator`: the first preset using it, else the default preset."""
+    """Numerics the map uses for `integrator`: the first preset using it, else the default one."""
     for preset in PRESETS.values():
         if preset.numerics.integrator == integrator:
             return preset.numerics
@@ -193,35 +200,44 @@ def max_stable_timestep_s(
     if not by_n:
         return None
     finer = [n for n in sorted(by_n) if n >= n_segments - 1e-9]
-    stiffer = [k for k, e in enumerate(MAP_MODULI_PA) if e >= modulus_pa * (1 - 1e-9)]
-    if not finer or not stiffer:
+    if not finer:
         return None
-    return by_n[finer[0]][stiffer[0]]
+    row = by_n[finer[0]]
+    stiffer = [k for k, e in enumerate(MAP_MODULI_PA[: len(row)]) if e >= modulus_pa * (1 - 1e-9)]
+    return row[stiffer[0]] if stiffer else None
 
 
 def preset_envelopes(
     table: dict[str, dict[int, tuple[float, ...]]] | None = None,
 ) -> dict[str, dict[str, object]]:
-    """Per preset: its settings, the largest stable timestep at E = 1 MPa, the moduli and the finest
-    segmentation stable at its own timestep (from the map's table)."""
+    """Envelope of every preset for the reference filament and coil, filaments touching.
+
+    Per preset: its settings, the largest stable timestep at E = 1 MPa, and the moduli and finest
+    segmentation stable at its own timestep (rod table and coil limit).
+    """
     table = ENVELOPE if table is None else table
+    ref = REFERENCE_FILAMENT
+    kappa = ref.curvature_per_m(REFERENCE_PRESSURE_PA)
     out: dict[str, dict[str, object]] = {}
+    rate_per_sqrt_pa = bending_wave_speed_m2_s(ref) * kappa**2 / math.sqrt(ref.youngs_modulus_pa)
+
+    def limit(integrator: str, segments: float, modulus: float) -> float:
+        rod = max_stable_timestep_s(integrator, segments, modulus, table) or 0.0
+        return min(rod, COIL_TIMESTEP_NUMBER / (rate_per_sqrt_pa * math.sqrt(modulus)))
+
     for name, preset in PRESETS.items():
         num, n = preset.numerics, preset.n_segments
-        dt_max = max_stable_timestep_s(num.integrator, n, 1e6, table)
-        moduli = [
-            e for e in MAP_MODULI_PA
-            if (max_stable_timestep_s(num.integrator, n, e, table) or 0.0) >= num.timestep_s
-        ]
+        moduli = [e for e in MAP_MODULI_PA if limit(num.integrator, n, e) >= num.timestep_s]
         finest = [
-            m for m in table.get(num.integrator, {})
-            if (max_stable_timestep_s(num.integrator, m, 1e6, table) or 0.0) >= num.timestep_s
+            m
+            for m in table.get(num.integrator, {})
+            if limit(num.integrator, m, 1e6) >= num.timestep_s
         ]
         out[name] = {
             "integrator": num.integrator,
             "n_segments": n,
             "timestep_s": num.timestep_s,
-            "max_timestep_s": dt_max or 0.0,
+            "max_timestep_s": limit(num.integrator, n, 1e6),
             "modulus_range": (
                 f"{min(moduli) / 1e6:g} to {max(moduli) / 1e6:g}" if moduli else "none measured"
             ),
@@ -231,55 +247,89 @@ def preset_envelopes(
     return out
 
 
-#: Largest rest rotation per segment kappa * ds, rad. Beyond it the discrete coil curls unphysically fast
-#: (default top-drape trial, balanced preset: largest body speed 0.9 m/s at 2 rad, 2.3 m/s at 2.5 rad,
-#: 6.7 m/s at 3 rad, against 0.55 m/s unactuated-scale motion), and past pi the ball-joint spring wraps.
+#: Largest rest rotation per segment kappa * ds, rad. Beyond it the discrete coil curls unphysically
+#: fast (default top-drape trial, balanced preset: largest body speed 0.9 m/s at 2 rad, 2.3 m/s at
+#: 2.5 rad, 6.7 m/s at 3 rad, against 0.55 m/s unactuated-scale motion), and past pi the ball-joint
+#: spring wraps.
 MAX_TURN_PER_SEGMENT_RAD = 2.0
+
+#: Coil limit: dt * c * kappa^2 at most this (c = sqrt(EI / (rho A))) when filaments touch. Turns of
+#: a tight coil collide at the bending-wave rate of the coil, which the rod map (reference 12.5 mm
+#: coil) does not cover. Measured by `scripts/stability_map.py` (coil sweep,
+#: results/stability/coil_map.csv: one filament, every contact on, coil radii 2.1-12.5 mm, E 1-10
+#: MPa, euler and implicitfast): where a limit was found, the largest stable timestep times c
+#: kappa^2 was 0.64 at the smallest (implicitfast, R = 3 r, E = 1 MPa), 0.72 next (euler, R = 4 r)
+#: and 0.9 to 4.5 elsewhere; euler at R = 3 r, E = 10 MPa found none down to 0.25 ms, where this
+#: limit asks for 0.07 ms.
+COIL_TIMESTEP_NUMBER = 0.6
+MAP_COIL_RADII_M = (0.0125, 0.008, 0.0058, 0.004, 0.0028, 0.0021)
+MAP_COIL_MODULI_PA = (1e6, 3e6, 10e6)
+MAP_COIL_INTEGRATORS = ("euler", "implicitfast")
 
 #: Tightest coil the actuation law is used for, in filament radii (Becker et al. 2022 design range).
 MIN_COIL_RADIUS_RATIO = 3.0
 
-#: Integrators whose joint damping is explicit (its stability limit falls as the damping time grows).
+#: Integrators whose joint damping is explicit (its stability limit falls as the damping time
+#: grows).
 EXPLICIT_DAMPING = ("euler", "rk4")
 
 
 def envelope_warnings(config: object) -> list[str]:
-    """Warnings for a resolved configuration (anything with `.gripper` and `.numerics`) outside the envelope.
+    """Warnings for a resolved configuration outside the measured stability envelope.
+
+    `config` is anything with `.gripper` and `.numerics` (and optionally `.effects`).
 
     Checks the timestep against ENVELOPE for the configuration's integrator, equivalent segments and
-    modulus; the point against the range the map covers; the numerics the map did not vary (twist armature,
-    damping time) in their destabilizing direction; and the actuation: rest rotation per segment above
-    MAX_TURN_PER_SEGMENT_RAD, coil radius below MIN_COIL_RADIUS_RATIO filament radii.
+    modulus; the point against the range the map covers; the numerics the map did not vary (twist
+    armature, damping time) in their destabilizing direction; and the actuation: rest rotation per
+    segment above MAX_TURN_PER_SEGMENT_RAD, coil radius below MIN_COIL_RADIUS_RATIO filament radii.
     """
     gripper, num = config.gripper, config.numerics
     fil = gripper.filament
     out = []
     n_eq, e_eq = equivalent_segments(fil), equivalent_modulus_pa(fil)
-    where = f"{fil.n_segments} segments of {fil.segment_length_m * 1e3:.3g} mm, E = {e_eq / 1e6:.3g} MPa"
+    where = (
+        f"{fil.n_segments} segments of {fil.segment_length_m * 1e3:.3g} mm, "
+        f"E = {e_eq / 1e6:.3g} MPa"
+    )
     if not (math.isclose(n_eq, fil.n_segments) and math.isclose(e_eq, fil.youngs_modulus_pa)):
         where += " (reference-filament equivalent)"
     dt_max = max_stable_timestep_s(num.integrator, n_eq, e_eq)
     if dt_max is None:
         out.append(
             f"{where} with the {num.integrator} integrator lies outside the measured stability map "
-            f"(up to {max(MAP_SEGMENTS)} reference segments, E up to {max(MAP_MODULI_PA) / 1e6:g} MPa); "
+            f"(up to {max(MAP_SEGMENTS)} reference segments, "
+            f"E up to {max(MAP_MODULI_PA) / 1e6:g} MPa); "
             "stability is unknown"
         )
     elif num.timestep_s > dt_max * (1 + 1e-9):
         limit = f"{dt_max * 1e3:g} ms" if dt_max > 0 else f"none down to {min(MAP_TIMESTEPS_S):g} s"
         out.append(
-            f"numerics.timestep_s = {num.timestep_s:g} s exceeds the stable envelope of the {num.integrator} "
+            f"numerics.timestep_s = {num.timestep_s:g} s exceeds the stable envelope of the "
+            f"{num.integrator} "
             f"integrator for {where} (largest stable timestep measured: {limit})"
+        )
+    coil = coil_timestep_limit_s(config)
+    if num.timestep_s > coil * (1 + 1e-9):
+        out.append(
+            f"numerics.timestep_s = {num.timestep_s:g} s is too long for the actuated coil: "
+            f"dt c kappa^2 = {num.timestep_s * coil_rate_per_s(config):.3g} > "
+            f"{COIL_TIMESTEP_NUMBER:g} (c = sqrt(EI / (rho A))), so touching turns collide faster "
+            "than "
+            f"the timestep resolves; use at most {coil * 1e3:.3g} ms"
         )
     base = base_numerics(num.integrator)
     if num.twist_armature_scale < base.twist_armature_scale:
         out.append(
             f"numerics.twist_armature_scale = {num.twist_armature_scale:g} is below the "
-            f"{base.twist_armature_scale:g} the stability map used for {num.integrator}; torsional waves are "
+            f"{base.twist_armature_scale:g} the stability map used for {num.integrator}; "
+            "torsional waves are "
             "faster and the envelope may not hold"
         )
-    if num.integrator in EXPLICIT_DAMPING and not num.euler_implicit_damping and (
-        fil.damping_time_s > REFERENCE_FILAMENT.damping_time_s
+    if (
+        num.integrator in EXPLICIT_DAMPING
+        and not num.euler_implicit_damping
+        and (fil.damping_time_s > REFERENCE_FILAMENT.damping_time_s)
     ):
         out.append(
             f"filament.damping_time_s = {fil.damping_time_s:g} s is above the "
@@ -296,19 +346,44 @@ def envelope_warnings(config: object) -> list[str]:
         )
     if kappa > 0 and 1.0 / kappa < MIN_COIL_RADIUS_RATIO * fil.outer_radius_m:
         out.append(
-            f"the actuated coil radius {1e3 / kappa:.3g} mm is below {MIN_COIL_RADIUS_RATIO:g} filament "
-            f"radii ({MIN_COIL_RADIUS_RATIO * fil.outer_radius_m * 1e3:.3g} mm), tighter than the actuation "
+            f"the actuated coil radius {1e3 / kappa:.3g} mm is below {MIN_COIL_RADIUS_RATIO:g} "
+            f"filament radii ({MIN_COIL_RADIUS_RATIO * fil.outer_radius_m * 1e3:.3g} mm), "
+            "tighter than the actuation "
             "law is used for"
         )
     return out
 
 
 def stable_timestep_s(config: object) -> float | None:
-    """Largest timestep of the measured envelope for a configuration's integrator and filament, s.
+    """Largest timestep of the envelope for a configuration (rod map and coil limit), s.
 
-    None when the configuration lies outside the map.
+    None when the configuration lies outside the rod map.
     """
     fil = config.gripper.filament
-    return max_stable_timestep_s(
+    rod = max_stable_timestep_s(
         config.numerics.integrator, equivalent_segments(fil), equivalent_modulus_pa(fil)
     )
+    return None if rod is None else min(rod, coil_timestep_limit_s(config))
+
+
+def bending_wave_speed_m2_s(filament: FilamentParams) -> float:
+    """c = sqrt(EI / (rho A)), m^2/s: a bending wave of wavenumber k has angular frequency c k^2."""
+    return math.sqrt(filament.bending_stiffness_nm2 / filament.linear_density_kg_m)
+
+
+def coil_rate_per_s(config: object) -> float:
+    """c kappa^2, 1/s: angular frequency of a bending wave of the actuated coil's wavenumber."""
+    fil = config.gripper.filament
+    kappa = fil.curvature_per_m(config.gripper.pressure_pa)
+    return bending_wave_speed_m2_s(fil) * kappa**2
+
+
+def coil_timestep_limit_s(config: object) -> float:
+    """COIL_TIMESTEP_NUMBER / (c kappa^2), s.
+
+    Infinite when filaments can touch neither themselves nor each other, or are not actuated.
+    """
+    effects = getattr(config, "effects", None)
+    touching = effects is None or effects.filament_self_contact or effects.filament_filament_contact
+    rate = coil_rate_per_s(config)
+    return COIL_TIMESTEP_NUMBER / rate if touching and rate > 0 else math.inf

@@ -1,9 +1,9 @@
 """Runtime watchdog: catches numerical trouble in a running trial so it is reported, never scored.
 
-Checked after every control step: NaN/Inf in the state, MuJoCo's warning counters (bad qacc, contact and
-constraint buffer overflow, bad inertia), mechanical energy beyond the work the harness can have put in,
-penetration and body speed beyond set bounds. The watchdog also keeps the worst values it has seen
-(`Watchdog.stats`), so stability tests can assert margins rather than only "did not trip".
+Checked after every control step: NaN/Inf in the state, MuJoCo's warning counters (bad qacc, contact
+and constraint buffer overflow, bad inertia), mechanical energy beyond the work the harness can have
+put in, penetration and body speed beyond set bounds. The watchdog also keeps the worst values it
+has seen (`Watchdog.stats`), so stability tests can assert margins rather than only "did not trip".
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ class WatchdogLimits:
     """Largest speed of any body's center of mass, m/s (the hub moves at most 2 m/s)."""
     max_penetration_m: float = 0.005
     grace_time_s: float = 0.2
-    """Penetration is not checked during this time after the watchdog starts, so initial overlaps resolve."""
+    """No penetration check for this long after the watchdog starts: initial overlaps resolve."""
     energy_slack_j: float = 0.05
     """Absolute allowance on top of the energy bound, J."""
 
@@ -88,8 +88,8 @@ def mechanical_energy(model: mujoco.MjModel, data: mujoco.MjData) -> float:
 def body_speeds(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     """(nbody - 1,) speed of every non-world body's center of mass, m/s (needs mj_comVel done).
 
-    `cvel` holds the velocity of the point at the tree's subtree center of mass moving with the body,
-    so the center-of-mass velocity is v_c + omega x (xipos - c).
+    `cvel` holds the velocity of the point at the tree's subtree center of mass moving with the
+    body, so the center-of-mass velocity is v_c + omega x (xipos - c).
     """
     cvel = data.cvel[1:]
     offset = data.xipos[1:] - data.subtree_com[model.body_rootid[1:]]
@@ -99,10 +99,10 @@ def body_speeds(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
 class Watchdog:
     """Stateful checker for one trial.
 
-    Energy bound: E(t) <= E(0) + W_act + M g H_up + 0.5 M v_hub^2 + slack, where W_act bounds the spring
-    energy any change of rest shape can inject (four times the full-actuation bending energy
-    0.5 EI kappa^2 L per filament, the energy of reversing a fully actuated curvature), M is the total
-    moving mass and H_up the hub's cumulative rise.
+    Energy bound: E(t) <= E(0) + W_act + M g H_up + 0.5 M v_hub^2 + slack, where W_act bounds the
+    spring energy any change of rest shape can inject (four times the full-actuation bending energy
+    0.5 EI kappa^2 L per filament, the energy of reversing a fully actuated curvature), M is the
+    total moving mass and H_up the hub's cumulative rise.
     """
 
     def __init__(

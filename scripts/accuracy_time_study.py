@@ -52,7 +52,7 @@ from tqdm import tqdm  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.filament import rest_quaternions  # noqa: E402
 from entangle_bench.metrics.acn import acn_total  # noqa: E402
-from entangle_bench.presets import PRESETS, Numerics  # noqa: E402
+from entangle_bench.presets import PRESETS, Numerics, Preset  # noqa: E402
 from entangle_bench.results import atomic_write_csv, atomic_write_text  # noqa: E402
 from entangle_bench.rods.case import RodCase, centerline_error, load_case  # noqa: E402
 from entangle_bench.rods.comparison import cached_result  # noqa: E402
@@ -70,6 +70,17 @@ SMOKE_OVERRIDES = (
     "phases.lift_height_m=0.01", "phases.hold_time_s=0.1", "phases.release_time_s=0.05",
 )
 SAMPLE_S = 0.01
+
+#: Presets proposed from this study's results (results/accuracy_time/README.md), measured next to the
+#: current PRESETS: fast and balanced move onto the rod Pareto front, balanced gets the segments the trial's
+#: ACN needs, accurate drops the Newton solver and the 0.5 ms step that made a trial cost ~100x balanced.
+PROPOSED = {
+    "fast": Preset("fast", 12, Numerics(timestep_s=2e-3, iterations=10, tolerance=1e-4)),
+    "balanced": Preset("balanced", 24, Numerics(timestep_s=2e-3)),
+    "accurate": Preset("accurate", 32, Numerics(
+        timestep_s=1e-3, integrator="implicitfast", iterations=100, tolerance=1e-8, twist_armature_scale=100.0,
+    )),
+}
 CURL_RAMP_S = 0.5  # fraction of the run over which the curl_ramp test ramps its rest curvature
 
 
@@ -109,11 +120,21 @@ class TrialConfig:
     overrides: tuple[str, ...] = ()
 
 
-def preset_config(name: str) -> RodConfig:
-    """The rod-dynamics point of a named preset."""
-    preset = PRESETS[name]
+def preset_config(preset: Preset) -> RodConfig:
+    """The rod-dynamics point of a preset."""
     n = preset.numerics
     return RodConfig("ball", preset.n_segments, n.timestep_s, n.integrator, n.twist_armature_scale)
+
+
+def preset_overrides(preset: Preset) -> tuple[str, ...]:
+    """Trial overrides that turn the default numerics (= balanced's) into `preset`'s."""
+    default = Numerics()
+    changed = [
+        f"numerics.{f.name}={getattr(preset.numerics, f.name)}"
+        for f in dataclasses.fields(Numerics)
+        if getattr(preset.numerics, f.name) != getattr(default, f.name)
+    ]
+    return (f"gripper.filament.n_segments={preset.n_segments}", *changed)
 
 
 # ----------------------------------------------------------------------------------------------- statics
@@ -351,6 +372,7 @@ def trial_configs(smoke: bool) -> tuple[list[TrialConfig], TrialConfig]:
                     ("gripper.filament.n_segments=24", "numerics.timestep_s=0.001",
                      "numerics.integrator=implicitfast")),
     ]
+    sweep += [TrialConfig(f"proposed {name}", base, preset_overrides(p)) for name, p in PROPOSED.items()]
     return sweep, fine
 
 
@@ -462,18 +484,19 @@ def plot_pareto(rods: pd.DataFrame, trial: pd.DataFrame, path: Path, presets: di
     ax.legend(fontsize=8)
     ax = axes[1]
     if len(trial):
-        ok = trial.dropna(subset=["position_dev_mm"])
-        ax.scatter(ok["cpu_per_sim_s"], ok["position_dev_mm"], s=22)
+        ok = trial.dropna(subset=["acn_dev_abs"])
+        ok = ok[ok["acn_dev_abs"] > 0]
+        ax.scatter(ok["cpu_per_sim_s"], ok["acn_dev_abs"], s=22)
         for _, row in ok.iterrows():
             color = "red" if row["label"] in presets else "0.3"
-            ax.annotate(row["label"], (row["cpu_per_sim_s"], row["position_dev_mm"]), fontsize=7,
+            ax.annotate(row["label"], (row["cpu_per_sim_s"], row["acn_dev_abs"]), fontsize=7,
                         color=color, xytext=(4, 3), textcoords="offset points")
         floor = trial[trial["label"].str.startswith("chaos floor")]
-        if len(floor):
-            ax.axhline(floor["position_dev_mm"].iloc[0], color="0.5", ls=":", label="chaos floor")
+        if len(floor) and floor["acn_dev_abs"].iloc[0] > 0:
+            ax.axhline(floor["acn_dev_abs"].iloc[0], color="0.5", ls=":", label="chaos floor (10 um offset)")
             ax.legend(fontsize=8)
-        ax.set(xscale="log", xlabel="CPU s per simulated s (12-filament top-drape trial)",
-               ylabel="object position deviation from fine run, mm (mean over seeds)",
+        ax.set(xscale="log", yscale="log", xlabel="CPU s per simulated s (12-filament top-drape trial)",
+               ylabel="|ACN - ACN of fine run| at end of hold (mean over seeds)",
                title="Top-drape trial against the fine-resolution run")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -481,6 +504,27 @@ def plot_pareto(rods: pd.DataFrame, trial: pd.DataFrame, path: Path, presets: di
     fig.savefig(tmp, dpi=120)
     plt.close(fig)
     tmp.replace(path)
+
+
+def preset_table(rods: pd.DataFrame, trial: pd.DataFrame) -> pd.DataFrame:
+    """Current and proposed presets side by side: rod errors and cost, trial cost and deviations."""
+    rows = []
+    for name in PRESETS:
+        for kind, preset in (("current", PRESETS[name]), ("proposed", PROPOSED[name])):
+            label = preset_config(preset).label
+            rod = rods[rods["label"] == label]
+            trial_label = name if kind == "current" else f"proposed {name}"
+            if kind == "current" and name == "accurate":
+                trial_label = "accurate (current; cost probe, 1 s trial)"
+            tri = trial[trial["label"] == trial_label] if len(trial) else trial
+            row = {"preset": f"{name} ({kind})", "rod config": label}
+            for column in ("static_error_max", "curl_ramp_error_max", "curl_sideways_error", "swing_error_max",
+                           "cpu_per_sim_s"):
+                row[f"rod {column}"] = float(rod[column].iloc[0]) if len(rod) else np.nan
+            for column in ("cpu_per_sim_s", "acn_dev_abs", "position_dev_mm", "success_rate"):
+                row[f"trial {column}"] = float(tri[column].iloc[0]) if len(tri) else np.nan
+            rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def markdown(frame: pd.DataFrame, digits: int = 3) -> str:
@@ -510,12 +554,12 @@ def rod_plan(smoke: bool) -> tuple[list[RodCase], dict[str, list[int]], list[Rod
     segments = [8, 12, 16, 24, 32, 40]
     plan = {"ball": segments, "ball_twist": segments, "cable": segments, "flex1d": [8, 12, 16, 24]}
     configs = []
-    for n in (8, 12, 16, 24, 32, 48):
+    for n in segments:
         for dt in (4e-3, 2e-3, 1e-3, 5e-4):
             for integrator in ("euler", "implicitfast"):
                 configs.append(RodConfig("ball", n, dt, integrator))
     for scale in (1.0, 10.0, 100.0):
-        for n, dt in ((16, 2e-3), (24, 1e-3)):
+        for n, dt in ((16, 2e-3), (24, 1e-3), (32, 1e-3)):
             for integrator in ("euler", "implicitfast"):
                 configs.append(RodConfig("ball", n, dt, integrator, scale))
     for rep in ("ball_twist", "cable"):
@@ -525,7 +569,7 @@ def rod_plan(smoke: bool) -> tuple[list[RodCase], dict[str, list[int]], list[Rod
     for n in (12, 16, 24, 32):
         for dt in (2e-3, 1e-3):
             configs.append(RodConfig("flex1d", n, dt, "discrete"))
-    configs += [preset_config(name) for name in PRESETS]
+    configs += [preset_config(p) for p in (*PRESETS.values(), *PROPOSED.values())]
     configs = list(dict.fromkeys(configs))
     return cases, plan, configs, RodConfig("ball", 64, 5e-5, "implicitfast", 1.0), 1.0
 
@@ -556,8 +600,10 @@ def main(argv: list[str] | None = None) -> int:
         rows = []
         jobs = [(c, s, ()) for c in [fine, *sweep] for s in range(seeds)]
         if not args.smoke:
-            floor = TrialConfig("chaos floor (fine, perturbation x1.01)", fine.preset, fine.overrides)
-            jobs += [(floor, s, ("perturbation_rad=0.0101",)) for s in range(seeds)]
+            floor = TrialConfig("chaos floor (fine, hub offset 10 um)", fine.preset, fine.overrides)
+            jobs += [(floor, s, ("offset_m=0.00001",)) for s in range(seeds)]
+            probe = TrialConfig("accurate (current; cost probe, 1 s trial)", "accurate", SMOKE_OVERRIDES)
+            jobs += [(probe, 0, ())]
         for config, seed, extra in tqdm(jobs, desc="trials", file=sys.stderr):
             rows.append(run_trial(config, seed, extra))
         raw = pd.DataFrame(rows)
@@ -566,7 +612,8 @@ def main(argv: list[str] | None = None) -> int:
         trial = trial_summary(raw)
         atomic_write_csv(trial, out / "trial_summary.csv")
 
-    presets = {name: preset_config(name).label for name in PRESETS}
+    presets = {name: preset_config(p).label for name, p in PRESETS.items()}
+    presets.update({f"proposed {name}": preset_config(p).label for name, p in PROPOSED.items()})
     plot_pareto(rods, trial, out / "pareto.png", presets)
     report = ["## Rod statics: max error / L against the analytic/BVP reference", ""]
     table = statics.pivot_table(index=["representation", "n_segments"], columns="case", values="error_max")
@@ -583,6 +630,10 @@ def main(argv: list[str] | None = None) -> int:
         report += ["Unstable swing configurations: " + "; ".join(unstable["label"]), ""]
     if len(trial):
         report += ["## Top-drape trial against the fine run (means over seeds)", "", markdown(trial), ""]
+    if len(rods):
+        presets_frame = preset_table(rods, trial)
+        atomic_write_csv(presets_frame, out / "presets.csv")
+        report += ["## Presets: current and proposed", "", markdown(presets_frame), ""]
     report += [f"total time {time.perf_counter() - started:.0f} s"]
     text = "\n".join(report)
     atomic_write_text(out / "report.md", text + "\n")

@@ -24,8 +24,12 @@ SMALL_GRIPPER = GripperParams(
 TREE_GEOMS = 10  # base, trunk, 8 branches
 
 
-def small_scene(effects: fx.Effects, gripper: GripperParams = SMALL_GRIPPER, obj="eight_branch_tree"):
-    return build_scene(SceneConfig(gripper=gripper, object_name=obj, effects=effects), hub_pos=(0, 0, 0.2))
+def small_scene(
+    effects: fx.Effects, gripper: GripperParams = SMALL_GRIPPER, obj="eight_branch_tree"
+):
+    return build_scene(
+        SceneConfig(gripper=gripper, object_name=obj, effects=effects), hub_pos=(0, 0, 0.2)
+    )
 
 
 def engine_pairs(model: mujoco.MjModel) -> set[tuple[int, int]]:
@@ -46,7 +50,7 @@ def engine_pairs(model: mujoco.MjModel) -> set[tuple[int, int]]:
 
 @pytest.mark.parametrize("flags", list(itertools.product([False, True], repeat=4)))
 def test_collision_pairs_are_exactly_those_the_engine_tests_and_the_effects_allow(flags):
-    """Every contact-effect combination: pair set equals the engine's; per-kind counts are combinatorial."""
+    """Every contact-effect combination: the engine's pair set; per-kind counts combinatorial."""
     ff, self_, fo, ground = flags
     effects = fx.Effects(
         filament_filament_contact=ff,
@@ -58,7 +62,11 @@ def test_collision_pairs_are_exactly_those_the_engine_tests_and_the_effects_allo
     pairs = fx.collision_pairs(model)
     assert set(pairs) == engine_pairs(model)
     expected = {
-        "filament_self": self_ * N_FIL * (N_SEG - 1) * (N_SEG - 2) // 2,  # non-adjacent segment pairs
+        "filament_self": self_
+        * N_FIL
+        * (N_SEG - 1)
+        * (N_SEG - 2)
+        // 2,  # non-adjacent segment pairs
         "filament_filament": ff * math.comb(N_FIL, 2) * N_SEG**2,
         "filament_object": fo * N_FIL * N_SEG * TREE_GEOMS,
         "filament_ground": ground * N_FIL * N_SEG,
@@ -77,19 +85,24 @@ def test_filaments_that_can_never_touch_are_excluded():
     """Roots farther apart than two reaches: no pair between them, near neighbours still pair."""
     fil = FilamentParams(length_m=0.04, n_segments=4)
     # Two filaments 10 mm apart and one 0.3 m away (beyond 2 * (40 mm + r)).
-    gripper = GripperParams(filament=fil, ring_diameters_m=(0.01, 0.6), ring_counts=(2, 1), hub_radius_m=0.31)
+    gripper = GripperParams(
+        filament=fil, ring_diameters_m=(0.01, 0.6), ring_counts=(2, 1), hub_radius_m=0.31
+    )
     model = small_scene(fx.Effects(), gripper, obj=None).model
     pairs = fx.collision_pairs(model)
     assert set(pairs) == engine_pairs(model)
     roles, index = fx.geom_roles(model)
-    cross = {tuple(sorted((index[a], index[b]))) for a, b in pairs
-             if roles[a] == roles[b] == "filament" and index[a] != index[b]}
+    cross = {
+        tuple(sorted((index[a], index[b])))
+        for a, b in pairs
+        if roles[a] == roles[b] == "filament" and index[a] != index[b]
+    }
     assert cross == {(0, 1)}
     assert model.nexclude == 2 * 4 * 4
 
 
 def test_exclude_signature_uses_the_geoms_own_bodies():
-    """A body welded to its parent (no joint) keeps its own id in exclude signatures (engine source)."""
+    """A body welded to its parent (no joint) keeps its own id in exclude signatures."""
     spec = mujoco.MjSpec()
     for name, x in (("a", 0.0), ("c", 0.5)):
         body = spec.worldbody.add_body(name=name, pos=(x, 0, 1))
@@ -119,10 +132,14 @@ def test_rod_case_with_nothing_to_touch_compiles_without_collision():
 def test_engine_stages_follow_the_declared_effects():
     bits = mujoco.mjtDisableBit
     default = small_scene(fx.Effects()).model
-    assert not default.opt.disableflags & (bits.mjDSBL_GRAVITY | bits.mjDSBL_CONTACT | bits.mjDSBL_DAMPER)
+    assert not default.opt.disableflags & (
+        bits.mjDSBL_GRAVITY | bits.mjDSBL_CONTACT | bits.mjDSBL_DAMPER
+    )
     assert default.opt.density == default.opt.viscosity == 0.0 and default.ngravcomp == 0
     assert np.all(default.geom_fluid[:, 0] == 0.0)
-    off = small_scene(fx.Effects(gravity=False, joint_damping=False, friction="none", cone="elliptic")).model
+    off = small_scene(
+        fx.Effects(gravity=False, joint_damping=False, friction="none", cone="elliptic")
+    ).model
     assert off.opt.disableflags & bits.mjDSBL_GRAVITY and off.opt.disableflags & bits.mjDSBL_DAMPER
     assert off.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
     colliding = (off.geom_contype != 0) | (off.geom_conaffinity != 0)
@@ -136,8 +153,11 @@ def test_engine_stages_follow_the_declared_effects():
 def test_aquatic_buoyancy_lifts_a_light_sphere_with_archimedes_force():
     """At rest in water: object acceleration g (rho_w V / m - 1), V the sphere's analytic volume."""
     effects = fx.Effects(aquatic=True, medium_density_kg_m3=1000.0, medium_viscosity_pa_s=1e-3)
-    scene = build_scene(SceneConfig(gripper=SMALL_GRIPPER, object_name="sphere", effects=effects),
-                        hub_pos=(0, 0, 0.6), object_pos=(0, 0, 0.2))
+    scene = build_scene(
+        SceneConfig(gripper=SMALL_GRIPPER, object_name="sphere", effects=effects),
+        hub_pos=(0, 0, 0.6),
+        object_pos=(0, 0, 0.2),
+    )
     model, data = scene.model, mujoco.MjData(scene.model)
     radius = scene.object_info.dims["diameter_m"] / 2
     volume = 4.0 / 3.0 * math.pi * radius**3
@@ -164,7 +184,9 @@ def test_gravity_length_in_air_and_water():
     assert fx.gravity_length_m(fil, fx.Effects()) == pytest.approx(fil.gravity_length_m)
     assert math.isinf(fx.gravity_length_m(fil, fx.Effects(gravity=False)))
     # A solid filament of the medium's own density is neutrally buoyant: no droop at any length.
-    neutral = FilamentParams(channel_radius_ratio=0.0, channel_eccentricity=0.0, density_kg_m3=1000.0)
+    neutral = FilamentParams(
+        channel_radius_ratio=0.0, channel_eccentricity=0.0, density_kg_m3=1000.0
+    )
     assert math.isinf(fx.gravity_length_m(neutral, fx.Effects(aquatic=True)))
     # Solid section: l_g = (E r^2 / (4 |drho| g))^(1/3) since I / A = r^2 / 4.
     solid = dataclasses.replace(neutral, density_kg_m3=1500.0)
@@ -173,10 +195,13 @@ def test_gravity_length_in_air_and_water():
 
 
 def hanging_trajectory(effects: fx.Effects) -> np.ndarray:
-    """qpos history of one filament hanging in air, 0.6 s of a small pressure ramp (no contact occurs)."""
+    """qpos history of one filament in air, 0.6 s of a small pressure ramp (no contact occurs)."""
     gripper = GripperParams(
-        filament=FilamentParams(n_segments=12), ring_diameters_m=(0.0,), ring_counts=(1,),
-        bending_plane="fixed", pressure_pa=40e3,
+        filament=FilamentParams(n_segments=12),
+        ring_diameters_m=(0.0,),
+        ring_counts=(1,),
+        bending_plane="fixed",
+        pressure_pa=40e3,
     )
     config = SceneConfig(gripper=gripper, effects=effects, numerics=get_preset("fast").numerics)
     scene = build_scene(config, hub_pos=(0.0, 0.0, 0.5))
@@ -191,8 +216,16 @@ def hanging_trajectory(effects: fx.Effects) -> np.ndarray:
     return np.array(history)
 
 
-@pytest.mark.parametrize("name", ["ground_contact", "filament_filament_contact", "filament_object_contact",
-                                  "friction", "all contact"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "ground_contact",
+        "filament_filament_contact",
+        "filament_object_contact",
+        "friction",
+        "all contact",
+    ],
+)
 def test_switching_off_an_unused_effect_leaves_the_trajectory_unchanged(name):
     """One filament hanging in free air, never touching anything: bit-identical trajectories."""
     on = fx.Effects()
@@ -205,4 +238,35 @@ def test_switching_off_an_unused_effect_leaves_the_trajectory_unchanged(name):
 
 def test_switching_off_a_used_effect_changes_the_trajectory():
     """The comparison above can fail: gravity is used, and switching it off changes the motion."""
-    assert not np.allclose(hanging_trajectory(fx.Effects()), hanging_trajectory(fx.Effects(gravity=False)))
+    assert not np.allclose(
+        hanging_trajectory(fx.Effects()), hanging_trajectory(fx.Effects(gravity=False))
+    )
+
+
+def test_explicit_self_contact_pairs_carry_the_geom_material():
+    """Self-contact without filament-filament contact: explicit pairs with the geoms' material."""
+    from entangle_bench.gripper import add_gripper, filament_positions
+
+    spec = mujoco.MjSpec()
+    gripper = add_gripper(spec, SMALL_GRIPPER)
+    group = {}
+    for handle in gripper.filaments:
+        for name in handle.geom_names:
+            spec.geom(name).friction = (0.7, 2e-4, 3e-5)
+            spec.geom(name).solref = (0.01, 1.5)
+            group[name] = fx.FILAMENT
+    effects = fx.Effects(filament_filament_contact=False, ground_contact=False)
+    fx.apply_effects(
+        spec,
+        effects,
+        group,
+        [list(h.body_names) for h in gripper.filaments],
+        filament_positions(SMALL_GRIPPER),
+        0.3,
+    )
+    model = spec.compile()
+    assert model.npair == N_FIL * (N_SEG - 1) * (N_SEG - 2) // 2
+    assert np.allclose(model.pair_friction, (0.7, 0.7, 2e-4, 3e-5, 3e-5))
+    assert np.allclose(model.pair_solref, (0.01, 1.5))
+    assert set(model.pair_dim) == {3}
+    assert set(fx.collision_pairs(model)) == engine_pairs(model)

@@ -1,4 +1,4 @@
-"""Runtime watchdog: each check trips on real trouble, with its reason and time, and not on a sound run."""
+"""Runtime watchdog: each check trips on real trouble, with reason and time, not on a sound run."""
 
 import math
 
@@ -17,7 +17,7 @@ from entangle_bench.watchdog import (
 
 @pytest.fixture(autouse=True)
 def quiet_mujoco():
-    """MuJoCo prints (and logs to MUJOCO_LOG.TXT) the warnings these tests provoke; silence, then restore."""
+    """MuJoCo prints and logs the warnings these tests provoke; silence it, then restore."""
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(lambda text: None)
     yield
@@ -25,7 +25,7 @@ def quiet_mujoco():
 
 
 def pendulum(gravcomp: float = 0.0, box: bool = True) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """A 0.1 kg point-like bob on a 0.5 m hinge, a ground plane and (optionally) a box resting on it."""
+    """A 0.1 kg bob on a 0.5 m hinge, a ground plane and (optionally) a box resting on it."""
     spec = mujoco.MjSpec()
     spec.option.timestep = 1e-3
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
@@ -33,8 +33,14 @@ def pendulum(gravcomp: float = 0.0, box: bool = True) -> tuple[mujoco.MjModel, m
     spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(1, 1, 0.01))
     arm = spec.worldbody.add_body(name="arm", pos=(0, 0, 1.0), gravcomp=gravcomp)
     arm.add_joint(type=mujoco.mjtJoint.mjJNT_HINGE, axis=(0, 1, 0))
-    arm.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=(0.01, 0, 0), pos=(0, 0, -0.5), mass=0.1,
-                 contype=0, conaffinity=0)
+    arm.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=(0.01, 0, 0),
+        pos=(0, 0, -0.5),
+        mass=0.1,
+        contype=0,
+        conaffinity=0,
+    )
     if box:
         body = spec.worldbody.add_body(name="box", pos=(0.5, 0, 0.05))
         body.add_freejoint()
@@ -59,7 +65,9 @@ def test_sound_run_does_not_trip_and_records_its_worst_values():
     stats = watchdog.stats
     assert stats.checks == 200
     # Bob speed at the bottom: sqrt(2 g l (1 - cos 1 rad)), energy conservation.
-    assert stats.max_speed_m_s == pytest.approx(math.sqrt(2 * 9.81 * 0.5 * (1 - math.cos(1.0))), rel=0.02)
+    assert stats.max_speed_m_s == pytest.approx(
+        math.sqrt(2 * 9.81 * 0.5 * (1 - math.cos(1.0))), rel=0.02
+    )
     assert stats.max_penetration_m == 0.0
     assert 0.0 < stats.min_energy_margin_j <= 1e-3 + 1e-9
 
@@ -92,7 +100,7 @@ def test_nan_in_the_state_trips_with_reason_and_time():
 
 
 def test_mujoco_warning_counter_trips():
-    """A huge velocity makes MuJoCo raise its bad-qvel/qacc warning; the watchdog reports it by name."""
+    """A huge velocity makes MuJoCo raise its bad-qvel/qacc warning; reported by name."""
     model, data = pendulum()
     watchdog = Watchdog(model, data, WatchdogLimits(), 0.0)
     data.qvel[0] = 1e12
@@ -136,7 +144,7 @@ def test_energy_beyond_the_work_put_in_trips():
 
 
 def test_buoyancy_potential_makes_energy_conserved():
-    """gravcomp = 3: net upward force 2 m g; kinetic + gravity + buoyancy potential stays constant."""
+    """gravcomp = 3: net upward force 2 m g; kinetic + gravity + buoyancy potential is constant."""
     model, data = pendulum(gravcomp=3.0, box=False)
     energy0 = mechanical_energy(model, data)
     swing = []
@@ -168,14 +176,18 @@ def test_mocap_lift_raises_the_bound():
 
 
 def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so():
-    """Stiff fine filaments at the fast preset's 4 ms: outside the envelope, unstable; at 2 ms, stable."""
+    """E = 10 MPa, 16 segments at 8 ms: outside the envelope and unstable; at 4 ms, stable."""
     from entangle_bench.runner import TrialSpec, run_trial
     from entangle_bench.stability import envelope_warnings
     from entangle_bench.suite import resolve_config
     from tests.suite.test_top_drape import SHORT
 
-    stiff = ["gripper.filament.youngs_modulus_pa=1e7", "gripper.pressure_pa=1.72e6",
-             "gripper.filament.n_segments=24"]
+    stiff = [
+        "gripper.filament.youngs_modulus_pa=1e7",
+        "gripper.pressure_pa=1.72e6",
+        "gripper.filament.n_segments=16",
+        "numerics.timestep_s=0.008",
+    ]
     config = resolve_config("eight_branch_tree", "fast", SHORT + stiff)
     assert any("timestep" in w for w in envelope_warnings(config))
     spec = TrialSpec("top_drape/eight_branch_tree", "stiff", config, 0, "fast")

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+
 import mujoco
 import numpy as np
 

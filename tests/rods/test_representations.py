@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -20,7 +20,7 @@ def _case(name: str):
     return load_case(CASE_DIR / f"{name}.json")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _reference(case):
     return an.reference_centerline(case)[0]
 

@@ -1,4 +1,4 @@
-"""Running a hard case: a short top-drape trial (or a probe) under the watchdog, keeping its worst values."""
+"""Running a hard case: a short top-drape trial (or a probe) under the watchdog, worst values."""
 
 from __future__ import annotations
 
@@ -16,7 +16,8 @@ from entangle_bench.suite.top_drape import TopDrapeConfig, make_environment, scr
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 from tests.suite.test_top_drape import SHORT
 
-#: Watchdog bounds asserted by every hard case (the trial defaults): 20 m/s, 5 mm after 0.2 s, energy.
+#: Watchdog bounds asserted by every hard case (the trial defaults): 20 m/s, 5 mm after 0.2 s,
+#: energy.
 LIMITS = WatchdogLimits()
 
 
@@ -26,7 +27,7 @@ class CaseRun:
 
     config: TopDrapeConfig
     preset_timestep_s: float
-    """The preset's own timestep; the run used config.numerics.timestep_s (smaller if outside the envelope)."""
+    """The preset's own timestep; the run used config.numerics.timestep_s (smaller if needed)."""
     preset_warnings: list[str]
     """Envelope warnings of the configuration at the preset's own timestep."""
     reason: str
@@ -50,10 +51,14 @@ def within_envelope(config: TopDrapeConfig) -> TopDrapeConfig:
     limit = stability.stable_timestep_s(config)
     if limit is None or config.numerics.timestep_s <= limit:
         return config
-    return dataclasses.replace(config, numerics=dataclasses.replace(config.numerics, timestep_s=limit))
+    return dataclasses.replace(
+        config, numerics=dataclasses.replace(config.numerics, timestep_s=limit)
+    )
 
 
-def resolve_case(preset: str, overrides: list[str], task: str = "eight_branch_tree") -> TopDrapeConfig:
+def resolve_case(
+    preset: str, overrides: list[str], task: str = "eight_branch_tree"
+) -> TopDrapeConfig:
     """The short top-drape trial of `task` with a preset and the case's overrides."""
     return resolve_config(task, preset, SHORT + overrides)
 
@@ -63,7 +68,7 @@ def run_trial_case(
     seed: int = 0,
     prepare: Callable[[object], None] | None = None,
 ) -> CaseRun:
-    """Drive the scripted trial at the envelope's timestep under the watchdog; `prepare(physics)` after reset."""
+    """Scripted trial at the envelope's timestep, watchdog on; `prepare(physics)` after reset."""
     used = within_envelope(config)
     env = make_environment(used, seed)
     step = env.reset()
@@ -94,7 +99,7 @@ def run_trial_case(
 
 
 def run_probe_case(config, duration_s: float = 1.0, seed: int = 0) -> stability.ProbeResult:
-    """A probe (gripper alone, in air) at the envelope's timestep, under the trial's watchdog bounds."""
+    """A probe (gripper alone, in air) at the envelope's timestep, under the trial's bounds."""
     used = within_envelope(config)
     return stability.probe(used, duration_s=duration_s, seed=seed, limits=LIMITS)
 

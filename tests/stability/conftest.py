@@ -1,4 +1,4 @@
-"""Stability tests provoke MuJoCo warnings on purpose: keep them out of stdout and MUJOCO_LOG.TXT."""
+"""Stability tests provoke MuJoCo warnings on purpose: keep them out of stdout and the log."""
 
 import mujoco
 import pytest

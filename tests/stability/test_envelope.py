@@ -6,6 +6,7 @@ import pytest
 
 from entangle_bench import stability
 from entangle_bench.filament import FilamentParams
+from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import PRESETS, get_preset
 from entangle_bench.scene import SceneConfig
 from entangle_bench.suite import TASKS, resolve_config
@@ -49,15 +50,33 @@ def warnings_for(preset, overrides):
 
 
 def test_out_of_envelope_settings_are_named():
-    assert any("timestep" in w and "euler" in w for w in warnings_for(
-        "fast", ["gripper.filament.youngs_modulus_pa=3e7", "gripper.filament.n_segments=64"]))
-    assert any("outside the measured stability map" in w
-               for w in warnings_for("fast", ["gripper.filament.n_segments=400"]))
-    assert any("twist_armature_scale" in w for w in warnings_for("fast", ["numerics.twist_armature_scale=10"]))
-    assert any("damping_time_s" in w for w in warnings_for("fast", ["gripper.filament.damping_time_s=0.1"]))
+    assert any(
+        "timestep" in w and "euler" in w
+        for w in warnings_for(
+            "fast", ["gripper.filament.youngs_modulus_pa=3e7", "gripper.filament.n_segments=64"]
+        )
+    )
+    assert any(
+        "outside the measured stability map" in w
+        for w in warnings_for("fast", ["gripper.filament.n_segments=400"])
+    )
+    assert any(
+        "twist_armature_scale" in w
+        for w in warnings_for("fast", ["numerics.twist_armature_scale=10"])
+    )
+    assert any(
+        "damping_time_s" in w for w in warnings_for("fast", ["gripper.filament.damping_time_s=0.1"])
+    )
     under = warnings_for("balanced", ["gripper.pressure_pa=5e5"])
     assert any("under-resolved" in w and "use at least" in w for w in under)
-    assert any("below 3 filament radii" in w for w in warnings_for("balanced", ["gripper.pressure_pa=1.5e6"]))
+    assert any(
+        "below 3 filament radii" in w
+        for w in warnings_for("balanced", ["gripper.pressure_pa=1.5e6"])
+    )
+    stiff_coil = warnings_for(
+        "fast", ["gripper.filament.youngs_modulus_pa=1e7", "gripper.pressure_pa=1.72e6"]
+    )
+    assert any("too long for the actuated coil" in w for w in stiff_coil)
     # Implicit integration keeps stiff fine filaments inside the envelope.
     assert warnings_for("accurate", ["gripper.filament.youngs_modulus_pa=1e7"]) == []
 
@@ -66,17 +85,56 @@ def map_point(integrator, n_segments, modulus_pa, timestep_s):
     """The stability map's probe configuration at one point."""
     ref = stability.REFERENCE_FILAMENT
     filament = dataclasses.replace(
-        ref, youngs_modulus_pa=modulus_pa, n_segments=n_segments,
+        ref,
+        youngs_modulus_pa=modulus_pa,
+        n_segments=n_segments,
         curvature_calibration=ref.calibration * modulus_pa / ref.youngs_modulus_pa,
     )
     numerics = dataclasses.replace(stability.base_numerics(integrator), timestep_s=timestep_s)
-    return SceneConfig(gripper=dataclasses.replace(stability.MAP_GRIPPER, filament=filament), numerics=numerics)
+    return SceneConfig(
+        gripper=dataclasses.replace(stability.MAP_GRIPPER, filament=filament), numerics=numerics
+    )
 
 
 def test_table_boundary_remeasured():
-    """Euler, 24 segments, E = 10 MPa: stable at the table's timestep, unstable at twice it (other seeds)."""
+    """Euler, 24 segments, E = 10 MPa: stable at the table's timestep, unstable at twice it."""
     limit = stability.max_stable_timestep_s("euler", 24, 10e6)
     assert 0 < limit < get_preset("fast").numerics.timestep_s
     for seed in (3, 4):
-        assert stability.probe(map_point("euler", 24, 10e6, limit), seed=seed, duration_s=0.6).stable
-    assert not stability.probe(map_point("euler", 24, 10e6, 2 * limit), seed=3, duration_s=0.6).stable
+        assert stability.probe(
+            map_point("euler", 24, 10e6, limit), seed=seed, duration_s=0.6
+        ).stable
+    assert not stability.probe(
+        map_point("euler", 24, 10e6, 2 * limit), seed=3, duration_s=0.6
+    ).stable
+
+
+def test_coil_limit_catches_a_tight_stiff_coil():
+    """Hypothesis found it: implicitfast, 8 ms, E = 3.2 MPa, 5.8 mm coil touching itself.
+
+    Inside the rod table (which holds the 12.5 mm coil) but unstable; the coil limit warns and its
+    timestep is stable.
+    """
+    ref = stability.REFERENCE_FILAMENT
+    fil = dataclasses.replace(ref, youngs_modulus_pa=3.16e6, n_segments=26)
+    gripper = GripperParams(
+        filament=fil, ring_diameters_m=(0.0,), ring_counts=(1,), pressure_pa=1.166e6
+    )
+    numerics = dataclasses.replace(stability.base_numerics("implicitfast"), timestep_s=8e-3)
+    config = SceneConfig(gripper=gripper, numerics=numerics)
+    assert stability.max_stable_timestep_s("implicitfast", 26, 3.16e6) == 8e-3
+    assert any("too long for the actuated coil" in w for w in stability.envelope_warnings(config))
+    assert not stability.probe(config, duration_s=0.6).stable
+    limit = stability.stable_timestep_s(config)
+    assert limit < 2e-3
+    safe = dataclasses.replace(config, numerics=dataclasses.replace(numerics, timestep_s=limit))
+    assert stability.envelope_warnings(safe) == []
+    assert all(stability.probe(safe, duration_s=0.6, seed=s).stable for s in (0, 1))
+    # Without filament contact the coil limit does not apply (nothing collides).
+    apart = dataclasses.replace(
+        config,
+        effects=dataclasses.replace(
+            config.effects, filament_self_contact=False, filament_filament_contact=False
+        ),
+    )
+    assert stability.stable_timestep_s(apart) == 8e-3
