@@ -37,7 +37,8 @@ class Numerics:
     noslip_iterations: int = 0
     """Post-processing iterations of MuJoCo's noslip solver that remove frictional creep (0: off)."""
     twist_armature_scale: float = 1000.0
-    """Armature on each filament twist DOF as a multiple of the segment's spin inertia (statics unchanged)."""
+    """Joint armature as a multiple of the segment's spin inertia (statics unchanged; MuJoCo applies it to all
+    three DOFs of each ball joint, see `filament.add_filament`)."""
 
     def __post_init__(self) -> None:
         check_range("numerics.timestep_s", self.timestep_s, 1e-6, 0.02)
@@ -84,16 +85,24 @@ class Preset:
 
 
 PRESETS: dict[str, Preset] = {
-    "fast": Preset("fast", 12, Numerics(timestep_s=4e-3)),
+    # From the accuracy-time front (results/accuracy_time/report.md): fast uses 2 ms because a 4 ms step
+    # tripled its curl error for 20 % less cost; balanced is the cheapest point under 2 % of L that still runs
+    # 3x real time in the default trial. The study found accurate 4.5x cheaper with CG at 32 segments and 1 ms
+    # for the same rod error; that change waits for the stability map to be re-measured with those numerics.
+    "fast": Preset("fast", 12, Numerics(timestep_s=2e-3)),
     "balanced": Preset("balanced", 16, Numerics(timestep_s=2e-3)),
-    "accurate": Preset("accurate", 40, Numerics(
-        timestep_s=5e-4,
-        integrator="implicitfast",
-        solver="newton",
-        iterations=100,
-        tolerance=1e-8,
-        twist_armature_scale=100.0,
-    )),
+    "accurate": Preset(
+        "accurate",
+        40,
+        Numerics(
+            timestep_s=5e-4,
+            integrator="implicitfast",
+            solver="newton",
+            iterations=100,
+            tolerance=1e-8,
+            twist_armature_scale=100.0,
+        ),
+    ),
 }
 
 DEFAULT_PRESET = "balanced"

@@ -5,8 +5,10 @@ ramp to the configured pressure, a hold, all under the runtime watchdog with an 
 to the gripper's own energy. `scripts/stability_map.py` sweeps it over Young's modulus x timestep x
 segments for every integrator with a small array that touches itself (MAP_GRIPPER: three filaments
 8.7 mm apart, every contact effect on, since filament contact halves the stable timestep of stiff
-filaments compared with a lone rod); the boundary is recorded in ENVELOPE below, and
-`envelope_warnings` compares a resolved configuration against it before a run.
+filaments compared with a lone rod); the boundary is recorded in ENVELOPE below. Tight coils whose
+turns touch need a further limit, dt c kappa^2 <= COIL_TIMESTEP_NUMBER, from the script's coil
+sweep. `envelope_warnings` compares a resolved configuration against both before a run, and
+`stable_timestep_s` gives the largest timestep they allow.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 from entangle_bench.filament import REFERENCE_PRESSURE_PA, FilamentParams
 from entangle_bench.gripper import GripperParams, bending_angles
-from entangle_bench.presets import DEFAULT_PRESET, PRESETS, Numerics, get_preset
+from entangle_bench.presets import PRESETS, Numerics
 from entangle_bench.scene import SceneConfig, build_scene
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
@@ -165,12 +167,26 @@ ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
 }
 
 
+#: Numerics the map was measured with (only the timestep varied): those of the presets when it was
+#: measured (euler: fast and balanced; implicitfast: accurate; implicit and rk4: balanced's with the
+#: integrator swapped). A preset whose other numerics differ from these needs the map run again.
+MAP_NUMERICS: dict[str, Numerics] = {
+    "euler": Numerics(),
+    "implicitfast": Numerics(
+        integrator="implicitfast",
+        solver="newton",
+        iterations=100,
+        tolerance=1e-8,
+        twist_armature_scale=100.0,
+    ),
+    "implicit": Numerics(integrator="implicit"),
+    "rk4": Numerics(integrator="rk4"),
+}
+
+
 def base_numerics(integrator: str) -> Numerics:
-    """Numerics the map uses for `integrator`: the first preset using it, else the default one."""
-    for preset in PRESETS.values():
-        if preset.numerics.integrator == integrator:
-            return preset.numerics
-    return dataclasses.replace(get_preset(DEFAULT_PRESET).numerics, integrator=integrator)
+    """Numerics the map used for `integrator` (timestep: the default 2 ms, varied by the map)."""
+    return MAP_NUMERICS[integrator]
 
 
 def equivalent_segments(filament: FilamentParams) -> float:
@@ -280,9 +296,10 @@ def envelope_warnings(config: object) -> list[str]:
     `config` is anything with `.gripper` and `.numerics` (and optionally `.effects`).
 
     Checks the timestep against ENVELOPE for the configuration's integrator, equivalent segments and
-    modulus; the point against the range the map covers; the numerics the map did not vary (twist
-    armature, damping time) in their destabilizing direction; and the actuation: rest rotation per
-    segment above MAX_TURN_PER_SEGMENT_RAD, coil radius below MIN_COIL_RADIUS_RATIO filament radii.
+    modulus, and against the coil limit (COIL_TIMESTEP_NUMBER) when filaments can touch; the point
+    against the range the map covers; the numerics the map did not vary (twist armature, damping
+    time) in their destabilizing direction; and the actuation: rest rotation per segment above
+    MAX_TURN_PER_SEGMENT_RAD, coil radius below MIN_COIL_RADIUS_RATIO filament radii.
     """
     gripper, num = config.gripper, config.numerics
     fil = gripper.filament
@@ -306,8 +323,7 @@ def envelope_warnings(config: object) -> list[str]:
         limit = f"{dt_max * 1e3:g} ms" if dt_max > 0 else f"none down to {min(MAP_TIMESTEPS_S):g} s"
         out.append(
             f"numerics.timestep_s = {num.timestep_s:g} s exceeds the stable envelope of the "
-            f"{num.integrator} "
-            f"integrator for {where} (largest stable timestep measured: {limit})"
+            f"{num.integrator} integrator for {where} (largest stable timestep measured: {limit})"
         )
     coil = coil_timestep_limit_s(config)
     if num.timestep_s > coil * (1 + 1e-9):
@@ -315,16 +331,14 @@ def envelope_warnings(config: object) -> list[str]:
             f"numerics.timestep_s = {num.timestep_s:g} s is too long for the actuated coil: "
             f"dt c kappa^2 = {num.timestep_s * coil_rate_per_s(config):.3g} > "
             f"{COIL_TIMESTEP_NUMBER:g} (c = sqrt(EI / (rho A))), so touching turns collide faster "
-            "than "
-            f"the timestep resolves; use at most {coil * 1e3:.3g} ms"
+            f"than the timestep resolves; use at most {coil * 1e3:.3g} ms"
         )
     base = base_numerics(num.integrator)
     if num.twist_armature_scale < base.twist_armature_scale:
         out.append(
             f"numerics.twist_armature_scale = {num.twist_armature_scale:g} is below the "
             f"{base.twist_armature_scale:g} the stability map used for {num.integrator}; "
-            "torsional waves are "
-            "faster and the envelope may not hold"
+            "torsional waves are faster and the envelope may not hold"
         )
     if (
         num.integrator in EXPLICIT_DAMPING
@@ -348,8 +362,7 @@ def envelope_warnings(config: object) -> list[str]:
         out.append(
             f"the actuated coil radius {1e3 / kappa:.3g} mm is below {MIN_COIL_RADIUS_RATIO:g} "
             f"filament radii ({MIN_COIL_RADIUS_RATIO * fil.outer_radius_m * 1e3:.3g} mm), "
-            "tighter than the actuation "
-            "law is used for"
+            "tighter than the actuation law is used for"
         )
     return out
 

@@ -323,7 +323,8 @@ def trial_deviation(rows: pd.DataFrame, fine: pd.DataFrame) -> pd.DataFrame:
     for name in ("position_dev_m", "angle_dev_rad", "acn_dev", "contacts_dev"):
         out[name] = np.nan
     for i, row in rows.iterrows():
-        if row["seed"] not in fine.index or row["outcome"] == "unstable" or pd.isna(row.get("object_x")):
+        probe = "cost probe" in row["label"]  # a shortened trial: only its cost is comparable
+        if probe or row["seed"] not in fine.index or row["outcome"] == "unstable" or pd.isna(row.get("object_x")):
             continue
         ref = fine.loc[row["seed"]]
         pos = np.array([row[f"object_{c}"] for c in "xyz"])
@@ -462,14 +463,15 @@ def plot_pareto(rods: pd.DataFrame, trial: pd.DataFrame, path: Path, presets: di
     """Error vs CPU time per simulated second: rods (left) and the top-drape trial (right)."""
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
     ax = axes[0]
-    for rep, group in rods.groupby("representation"):
+    for k, (rep, group) in enumerate(rods.groupby("representation")):
         actuated = group[group["error"].notna()]
         static_only = group[group["error"].isna()]
-        dots = ax.scatter(actuated["cpu_per_sim_s"], actuated["error"], label=rep, s=18, alpha=0.7)
+        if len(actuated):
+            ax.scatter(actuated["cpu_per_sim_s"], actuated["error"], label=rep, s=18, alpha=0.7, color=f"C{k}")
         if len(static_only):
             ax.scatter(static_only["cpu_per_sim_s"], static_only["static_error_max"], s=22,
-                       facecolors="none", edgecolors=dots.get_facecolor() if len(actuated) else None,
-                       label=f"{rep} (static only: rest shape fixed when compiled)")
+                       facecolors="none", edgecolors=f"C{k}",
+                       label=f"{rep}: static error only (cannot be actuated)")
     front = rods[rods["pareto"]].sort_values("cpu_per_sim_s")
     ax.plot(front["cpu_per_sim_s"], front["error"], "k--", lw=1, label="Pareto front")
     for name, label in presets.items():
@@ -574,6 +576,40 @@ def rod_plan(smoke: bool) -> tuple[list[RodCase], dict[str, list[int]], list[Rod
     return cases, plan, configs, RodConfig("ball", 64, 5e-5, "implicitfast", 1.0), 1.0
 
 
+def write_outputs(
+    out: Path, statics: pd.DataFrame, dynamics: pd.DataFrame, rods: pd.DataFrame, trial: pd.DataFrame,
+    seconds: float,
+) -> None:
+    """Write pareto.png, presets.csv and report.md (markdown tables), and print the report."""
+    presets = {name: preset_config(p).label for name, p in PRESETS.items()}
+    presets.update({f"proposed {name}": preset_config(p).label for name, p in PROPOSED.items()})
+    plot_pareto(rods, trial, out / "pareto.png", presets)
+    report = ["## Rod statics: max error / L against the analytic/BVP reference", ""]
+    table = statics.pivot_table(index=["representation", "n_segments"], columns="case", values="error_max")
+    report += [markdown(table.reset_index()), ""]
+    report += ["## Rod dynamics and cost (Pareto points marked)", ""]
+    if len(rods):
+        shown = rods.sort_values("cpu_per_sim_s")[
+            ["label", "static_error_max", "curl_sideways_error", "curl_ramp_error_max", "swing_error_max",
+             "cpu_per_sim_s", "pareto"]
+        ]
+        report += [markdown(shown), ""]
+    unstable = dynamics[dynamics["stable"].eq(False)] if "stable" in dynamics else dynamics.iloc[:0]
+    if len(unstable):
+        listed = "; ".join(f"{row.case}: {row.label}" for row in unstable.itertuples())
+        report += ["Unstable dynamic runs: " + listed, ""]
+    if len(trial):
+        report += ["## Top-drape trial against the fine run (means over seeds)", "", markdown(trial), ""]
+    if len(rods):
+        presets_frame = preset_table(rods, trial)
+        atomic_write_csv(presets_frame, out / "presets.csv")
+        report += ["## Presets: current and proposed", "", markdown(presets_frame), ""]
+    report += [f"total time {seconds:.0f} s"]
+    text = "\n".join(report)
+    atomic_write_text(out / "report.md", text + "\n")
+    print(text)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the study and write the tables and the plot."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -612,32 +648,7 @@ def main(argv: list[str] | None = None) -> int:
         trial = trial_summary(raw)
         atomic_write_csv(trial, out / "trial_summary.csv")
 
-    presets = {name: preset_config(p).label for name, p in PRESETS.items()}
-    presets.update({f"proposed {name}": preset_config(p).label for name, p in PROPOSED.items()})
-    plot_pareto(rods, trial, out / "pareto.png", presets)
-    report = ["## Rod statics: max error / L against the analytic/BVP reference", ""]
-    table = statics.pivot_table(index=["representation", "n_segments"], columns="case", values="error_max")
-    report += [markdown(table.reset_index()), ""]
-    report += ["## Rod dynamics and cost (Pareto points marked)", ""]
-    if len(rods):
-        shown = rods.sort_values("cpu_per_sim_s")[
-            ["label", "static_error_max", "curl_sideways_error", "curl_ramp_error_max", "swing_error_max",
-             "cpu_per_sim_s", "pareto"]
-        ]
-        report += [markdown(shown), ""]
-    unstable = dynamics[dynamics["stable"].eq(False)] if "stable" in dynamics else dynamics.iloc[:0]
-    if len(unstable):
-        report += ["Unstable swing configurations: " + "; ".join(unstable["label"]), ""]
-    if len(trial):
-        report += ["## Top-drape trial against the fine run (means over seeds)", "", markdown(trial), ""]
-    if len(rods):
-        presets_frame = preset_table(rods, trial)
-        atomic_write_csv(presets_frame, out / "presets.csv")
-        report += ["## Presets: current and proposed", "", markdown(presets_frame), ""]
-    report += [f"total time {time.perf_counter() - started:.0f} s"]
-    text = "\n".join(report)
-    atomic_write_text(out / "report.md", text + "\n")
-    print(text)
+    write_outputs(out, statics, dynamics, rods, trial, time.perf_counter() - started)
     return 0
 
 

@@ -176,7 +176,7 @@ def test_mocap_lift_raises_the_bound():
 
 
 def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so():
-    """E = 10 MPa, 16 segments at 8 ms: outside the envelope and unstable; at 4 ms, stable."""
+    """E = 10 MPa, 16 segments at 6 ms: outside the envelope and unstable; at 3 ms, stable."""
     from entangle_bench.runner import TrialSpec, run_trial
     from entangle_bench.stability import envelope_warnings
     from entangle_bench.suite import resolve_config
@@ -186,7 +186,7 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so():
         "gripper.filament.youngs_modulus_pa=1e7",
         "gripper.pressure_pa=1.72e6",
         "gripper.filament.n_segments=16",
-        "numerics.timestep_s=0.008",
+        "numerics.timestep_s=0.006",
     ]
     config = resolve_config("eight_branch_tree", "fast", SHORT + stiff)
     assert any("timestep" in w for w in envelope_warnings(config))

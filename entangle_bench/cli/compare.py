@@ -60,8 +60,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--segments", type=int, default=None, help="MuJoCo segments (default: preset)")
     parser.add_argument("--representation", choices=REPRESENTATIONS, default="ball")
     parser.add_argument(
-        "--elements", type=_elements, default=(25, 50), metavar="N1,N2",
-        help="PyElastica resolutions; the finer is the reference (default 25,50)",
+        "--elements", type=_elements, default=(50, 100), metavar="N1,N2",
+        help="PyElastica resolutions; the finer is the reference (default 50,100)",
     )
     parser.add_argument("--out", type=Path, default=Path("results") / "compare", help="output folder")
     parser.add_argument("--no-progress", action="store_true")
@@ -85,5 +85,8 @@ def run(args: argparse.Namespace) -> int:
     shown = frame[list(SHOWN)].rename(columns=SHOWN)
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(shown.to_string(index=False, float_format=lambda v: f"{v:.2e}"))
+    for row in rows:
+        if row["note"]:
+            print(f"note: {row['case']}: {row['note']}")
     print(f"table: {out}")
     return 0

@@ -70,14 +70,15 @@ def cached_result(case: RodCase, engine: str, n_elements: int, cache_dir: Path |
 def compare_case(
     case: RodCase,
     preset: str = "balanced",
-    elements: tuple[int, int] = (25, 50),
+    elements: tuple[int, int] = (50, 100),
     representation: str = "ball",
     n_segments: int | None = None,
     cache_dir: Path | None = None,
 ) -> dict[str, Any]:
     """One comparison row for `case`: errors (max, RMS over the centerline, / L) and wall times (s).
 
-    `elements` are PyElastica's two resolutions, the finer being the PyElastica reference.
+    `elements` are PyElastica's two resolutions, the finer being the PyElastica reference. A PyElastica
+    run that diverges leaves NaN in its columns and a `note`.
     """
     coarse, fine = sorted(int(n) for n in elements)
     check_range("elements (coarse)", coarse, 4, None)
@@ -85,19 +86,33 @@ def compare_case(
         raise ParameterError(f"elements must be two different resolutions, got {list(elements)}")
     mujoco_result = solve_representation(case, representation, n_segments, preset=preset, points=POINTS)
     exact = cached_result(case, "analytic", 0, cache_dir)
-    pe_fine = cached_result(case, "pyelastica", fine, cache_dir)
-    pe_coarse = cached_result(case, "pyelastica", coarse, cache_dir)
+    notes = []
+
+    def pyelastica(n: int) -> RodResult | None:
+        try:
+            return cached_result(case, "pyelastica", n, cache_dir)
+        except ParameterError as exc:  # PyElastica diverged: keep the row, say so
+            notes.append(f"{n} elements: {exc}")
+            return None
+
+    pe_fine, pe_coarse = pyelastica(fine), pyelastica(coarse)
     length = case.length
-    mj_pe = centerline_error(mujoco_result.centerline, pe_fine.centerline, length)
-    mj_an = centerline_error(mujoco_result.centerline, exact.centerline, length)
-    fine_an = centerline_error(pe_fine.centerline, exact.centerline, length)
-    coarse_an = centerline_error(pe_coarse.centerline, exact.centerline, length)
-    coarse_fine = centerline_error(pe_coarse.centerline, pe_fine.centerline, length)
+    nan2 = (float("nan"), float("nan"))
+
+    def error(a: RodResult | None, b: RodResult | None) -> tuple[float, float]:
+        return nan2 if a is None or b is None else centerline_error(a.centerline, b.centerline, length)
+
+    mj_pe = error(mujoco_result, pe_fine)
+    mj_an = error(mujoco_result, exact)
+    fine_an = error(pe_fine, exact)
+    coarse_an = error(pe_coarse, exact)
+    coarse_fine = error(pe_coarse, pe_fine)
     order = (
         math.log(coarse_an[0] / fine_an[0]) / math.log(fine / coarse)
         if fine_an[0] > 0.0 and coarse_an[0] > 0.0
         else float("nan")
     )
+    converged = all(r.settings.get("converged", True) for r in (pe_fine, pe_coarse) if r is not None)
     return {
         "case": case.name,
         "reference": exact.settings["method"],
@@ -112,13 +127,12 @@ def compare_case(
         "pyelastica_elements": fine,
         "pyelastica_vs_analytic_max": fine_an[0],
         "pyelastica_vs_analytic_rms": fine_an[1],
-        "pyelastica_wall_s": pe_fine.wall_time_s,
+        "pyelastica_wall_s": pe_fine.wall_time_s if pe_fine is not None else float("nan"),
         "pyelastica_coarse_elements": coarse,
         "pyelastica_coarse_vs_analytic_max": coarse_an[0],
         "pyelastica_coarse_vs_fine_max": coarse_fine[0],
-        "pyelastica_coarse_wall_s": pe_coarse.wall_time_s,
+        "pyelastica_coarse_wall_s": pe_coarse.wall_time_s if pe_coarse is not None else float("nan"),
         "pyelastica_observed_order": order,
-        "pyelastica_converged": bool(
-            pe_fine.settings.get("converged", True) and pe_coarse.settings.get("converged", True)
-        ),
+        "pyelastica_converged": converged,
+        "note": "; ".join(notes),
     }

@@ -269,8 +269,11 @@ class TopDrape(base.Task):
         physics.scene.gripper.set_pressure(model, 0.0, self.angles)
         adr = physics.scene.gripper.spring_addresses.reshape(-1, 4)
         rotvec = self.rng.normal(0.0, cfg.perturbation_rad, size=(len(adr), 3))
+        quat = np.empty(4)
         for row, vec in zip(adr, rotvec):
-            mujoco.mju_axisAngle2Quat(data.qpos[row], vec / (np.linalg.norm(vec) + 1e-300), np.linalg.norm(vec))
+            angle = float(np.linalg.norm(vec))
+            mujoco.mju_axisAngle2Quat(quat, vec / (angle + 1e-300), angle)
+            data.qpos[row] = quat
         physics.hub_velocity[:] = 0.0
         mujoco.mj_kinematics(model, data)
         self._object_z0 = physics.object_pose()[0][2]

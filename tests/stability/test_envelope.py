@@ -74,7 +74,8 @@ def test_out_of_envelope_settings_are_named():
         for w in warnings_for("balanced", ["gripper.pressure_pa=1.5e6"])
     )
     stiff_coil = warnings_for(
-        "fast", ["gripper.filament.youngs_modulus_pa=1e7", "gripper.pressure_pa=1.72e6"]
+        "fast",
+        ["gripper.filament.youngs_modulus_pa=1e7", "gripper.pressure_pa=1.72e6", "numerics.timestep_s=0.004"],
     )
     assert any("too long for the actuated coil" in w for w in stiff_coil)
     # Implicit integration keeps stiff fine filaments inside the envelope.
@@ -138,3 +139,11 @@ def test_coil_limit_catches_a_tight_stiff_coil():
         ),
     )
     assert stability.stable_timestep_s(apart) == 8e-3
+
+
+def test_presets_use_the_numerics_the_map_was_measured_with():
+    """A preset whose solver settings change needs `scripts/stability_map.py` run again."""
+    for name, preset in PRESETS.items():
+        measured = stability.base_numerics(preset.numerics.integrator)
+        same_step = dataclasses.replace(preset.numerics, timestep_s=measured.timestep_s)
+        assert same_step == measured, name

@@ -45,21 +45,18 @@ def same_coil_pressure(modulus_pa: float) -> float:
     return 172e3 * modulus_pa / REFERENCE.youngs_modulus_pa
 
 
-@pytest.mark.parametrize(
-    "preset",
-    [
-        "fast",
-        pytest.param("balanced", marks=pytest.mark.slow),
-        pytest.param("accurate", marks=pytest.mark.slow),
-    ],
-)
-def test_very_stiff_finely_segmented_filaments(preset):
-    """E = 10 MPa with twice the preset's segments (same coil): fastest bending waves of the suite.
+#: Fine segmentation for the stiff case: 24 segments (12.5 mm, twice the fast preset's), or the
+#: preset's own when finer.
+FINE_SEGMENTS = 24
 
-    Outside the euler presets' envelope at their own timestep: runs at the envelope's 1 ms (fast)
-    and 0.5 ms (balanced, 17 s, slow).
+
+@pytest.mark.parametrize("preset", PRESETS)
+def test_very_stiff_finely_segmented_filaments(preset):
+    """E = 10 MPa, finely segmented, same coil: the fastest bending waves of the suite.
+
+    Outside the euler presets' envelope at their own timestep: they run at the envelope's 1 ms.
     """
-    n = 2 * get_preset(preset).n_segments
+    n = max(FINE_SEGMENTS, get_preset(preset).n_segments)
     config = resolve_case(
         preset,
         [
