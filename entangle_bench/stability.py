@@ -84,10 +84,12 @@ def probe(
     rng = np.random.default_rng(seed)
     angles = bending_angles(config.gripper, rng)
     scene.gripper.set_pressure(model, 0.0, angles)
+    quat = np.empty(4)
     for row in scene.gripper.spring_addresses.reshape(-1, 4):
         vec = rng.normal(0.0, perturbation_rad, size=3)
         angle = float(np.linalg.norm(vec))
-        mujoco.mju_axisAngle2Quat(data.qpos[row], vec / (angle + 1e-300), angle)
+        mujoco.mju_axisAngle2Quat(quat, vec / (angle + 1e-300), angle)
+        data.qpos[row] = quat  # `row` is an index array: data.qpos[row] would be a copy
     mujoco.mj_forward(model, data)
     watchdog = Watchdog(model, data, limits or probe_limits(config), actuation_energy_j(config))
     steps = max(1, round(check_every_s / model.opt.timestep))

@@ -22,18 +22,7 @@ import mujoco
 from entangle_bench import effects as fx
 from entangle_bench.runner import TrialSpec, run_trial
 from entangle_bench.scene import build_scene
-from entangle_bench.suite import resolve_config
-
-#: The short top-drape sequence of the test suite (tests/suite/test_top_drape.py).
-SHORT = [
-    "phases.drape_depth_m=0.03",
-    "phases.ramp_time_s=0.2",
-    "phases.settle_time_s=0.1",
-    "phases.lift_height_m=0.03",
-    "phases.lift_speed_m_s=0.1",
-    "phases.hold_time_s=0.3",
-    "phases.release_time_s=0.1",
-]
+from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
 
 
 def machine() -> str:
@@ -57,7 +46,7 @@ def main() -> None:
         "--repeats", type=int, default=1, help="runs per variant; the fastest counts"
     )
     args = parser.parse_args()
-    base = resolve_config("eight_branch_tree", args.preset, SHORT if args.short else [])
+    base = resolve_config("eight_branch_tree", args.preset, SHORT_SEQUENCE if args.short else [])
     variants = {"all on (default)": base.effects}
     variants.update(
         {f"{name} off": fx.switched_off(base.effects, name) for name in fx.OPTIONAL_EFFECTS}

@@ -64,6 +64,18 @@ class Registry:
 
 TASKS = Registry()
 
+#: Overrides for a short top-drape sequence (about 2.7 s simulated instead of 7.6 s): smoke tests, CI and
+#: quick benchmarks. Use with `resolve_config(task, preset, SHORT_SEQUENCE + [...])`.
+SHORT_SEQUENCE = [
+    "phases.drape_depth_m=0.03",
+    "phases.ramp_time_s=0.2",
+    "phases.settle_time_s=0.1",
+    "phases.lift_height_m=0.03",
+    "phases.lift_speed_m_s=0.1",
+    "phases.hold_time_s=0.3",
+    "phases.release_time_s=0.1",
+]
+
 
 def _object_task_config(object_name: str) -> Callable[[], TopDrapeConfig]:
     def default_config() -> TopDrapeConfig:

@@ -8,19 +8,10 @@ import pytest
 
 from entangle_bench.errors import ParameterError, UnknownNameError
 from entangle_bench.runner import TrialSpec, run_trial
-from entangle_bench.suite import TASKS, load, resolve_config
+from entangle_bench.suite import SHORT_SEQUENCE, TASKS, load, resolve_config
 from entangle_bench.suite.top_drape import Schedule, make_environment, scripted_action
 
-#: A short top-drape sequence for tests: small drape, quick ramp, short lift and hold.
-SHORT = [
-    "phases.drape_depth_m=0.03",
-    "phases.ramp_time_s=0.2",
-    "phases.settle_time_s=0.1",
-    "phases.lift_height_m=0.03",
-    "phases.lift_speed_m_s=0.1",
-    "phases.hold_time_s=0.3",
-    "phases.release_time_s=0.1",
-]
+SHORT = SHORT_SEQUENCE
 
 
 def short_spec(task="eight_branch_tree", seed=0, extra=(), preset="fast"):
