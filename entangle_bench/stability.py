@@ -5,9 +5,9 @@ ramp to the configured pressure, a hold, all under the runtime watchdog with an 
 to the gripper's own energy. `scripts/stability_map.py` sweeps it over Young's modulus x timestep x
 segments for every integrator with a small array that touches itself (MAP_GRIPPER: three filaments
 8.7 mm apart, every contact effect on, since filament contact halves the stable timestep of stiff
-filaments compared with a lone rod); the boundary is recorded in ENVELOPE below. Tight coils whose
-turns touch need a further limit, dt c kappa^2 <= COIL_TIMESTEP_NUMBER, from the script's coil
-sweep. `envelope_warnings` compares a resolved configuration against both before a run, and
+filaments compared with a lone rod); the boundary is recorded in ENVELOPE below. Coils tighter
+than the reference need a further limit, dt c kappa^2 <= COIL_TIMESTEP_NUMBER, from the script's
+coil sweep. `envelope_warnings` compares a resolved configuration against both before a run, and
 `stable_timestep_s` gives the largest timestep they allow.
 """
 
@@ -135,18 +135,18 @@ ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
         12: (0.008, 0.008, 0.008, 0.008, 0.004, 0.002),
         16: (0.008, 0.008, 0.008, 0.008, 0.004, 0.001),
         24: (0.008, 0.008, 0.008, 0.004, 0.001, 0.0005),
-        40: (0.008, 0.008, 0.004, 0.002, 0.0005, 0),
-        64: (0.008, 0.008, 0.002, 0.0005, 0.00025, 0),
-        96: (0.008, 0.004, 0.001, 0.00025, 0, 0),
+        40: (0.008, 0.004, 0.004, 0.002, 0.0005, 0),
+        64: (0.004, 0.004, 0.002, 0.0005, 0.00025, 0),
+        96: (0.004, 0.002, 0.001, 0.00025, 0, 0),
     },
     "implicitfast": {
         8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
         12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
         16: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
         24: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
-        40: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
-        64: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
-        96: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        40: (0.002, 0.002, 0.008, 0.008, 0.008, 0.008),
+        64: (0.001, 0.002, 0.004, 0.008, 0.008, 0.008),
+        96: (0.002, 0.004, 0.008, 0.008, 0.008, 0.008),
     },
     "implicit": {
         8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
@@ -154,12 +154,12 @@ ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
         16: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
         24: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
         40: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
-        64: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
+        64: (0.008, 0.004, 0.008, 0.008, 0.008, 0.008),
         96: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
     },
     "rk4": {
         8: (0.008, 0.008, 0.008, 0.008, 0.008, 0.008),
-        12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.004),
+        12: (0.008, 0.008, 0.008, 0.008, 0.008, 0.002),
         16: (0.008, 0.008, 0.008, 0.008, 0.004, 0.002),
         24: (0.008, 0.008, 0.008, 0.008, 0.002, 0.0005),
         40: (0.008, 0.008, 0.008, 0.002, 0.0005, 0.00025),
@@ -211,24 +211,35 @@ def max_stable_timestep_s(
 ) -> float | None:
     """Largest measured stable timestep for reference-equivalent segments and modulus, s.
 
-    Conservative lookup: the next finer measured segmentation and the next stiffer measured modulus
-    (finer and stiffer are less stable). None when the point lies outside the map.
+    Conservative lookup: the smallest value of the measured points around the requested one (the
+    segment rows and moduli just below and just above it; stability is not monotone in either: soft
+    fine filaments are the least stable for implicit integrators). None outside the map.
     """
     by_n = (ENVELOPE if table is None else table).get(integrator)
     if not by_n:
         return None
-    finer = [n for n in sorted(by_n) if n >= n_segments - 1e-9]
-    if not finer:
+    rows = sorted(by_n)
+    if n_segments > rows[-1] * (1 + 1e-9):
         return None
-    row = by_n[finer[0]]
-    stiffer = [k for k, e in enumerate(MAP_MODULI_PA[: len(row)]) if e >= modulus_pa * (1 - 1e-9)]
-    return row[stiffer[0]] if stiffer else None
+    near_rows = _bracket(rows, n_segments)
+    moduli = MAP_MODULI_PA[: len(by_n[rows[0]])]
+    if not moduli[0] * (1 - 1e-9) <= modulus_pa <= moduli[-1] * (1 + 1e-9):
+        return None
+    near_moduli = _bracket(list(moduli), modulus_pa)
+    return min(by_n[n][moduli.index(e)] for n in near_rows for e in near_moduli)
+
+
+def _bracket(grid: list[float], value: float) -> list[float]:
+    """The grid points just below and just above `value` (one if it lies on or beyond the grid)."""
+    below = [g for g in grid if g <= value * (1 + 1e-9)]
+    above = [g for g in grid if g >= value * (1 - 1e-9)]
+    return sorted(set(below[-1:] + above[:1]))
 
 
 def preset_envelopes(
     table: dict[str, dict[int, tuple[float, ...]]] | None = None,
 ) -> dict[str, dict[str, object]]:
-    """Envelope of every preset for the reference filament and coil, filaments touching.
+    """Envelope of every preset for the reference filament and coil.
 
     Per preset: its settings, the largest stable timestep at E = 1 MPa, and the moduli and finest
     segmentation stable at its own timestep (rod table and coil limit).
@@ -271,14 +282,12 @@ def preset_envelopes(
 #: spring wraps.
 MAX_TURN_PER_SEGMENT_RAD = 2.0
 
-#: Coil limit: dt * c * kappa^2 at most this (c = sqrt(EI / (rho A))) when filaments touch. Turns of
-#: a tight coil collide at the bending-wave rate of the coil, which the rod map (reference 12.5 mm
-#: coil) does not cover. Measured by `scripts/stability_map.py` (coil sweep,
-#: results/stability/coil_map.csv: one filament, every contact on, coil radii 2.1-12.5 mm, E 1-10
-#: MPa, euler and implicitfast): where a limit was found, the largest stable timestep times c
-#: kappa^2 was 0.64 at the smallest (implicitfast, R = 3 r, E = 1 MPa), 0.72 next (euler, R = 4 r)
-#: and 0.9 to 4.5 elsewhere; euler at R = 3 r, E = 10 MPa found none down to 0.25 ms, where this
-#: limit asks for 0.07 ms.
+#: Coil limit: dt * c * kappa^2 at most this (c = sqrt(EI / (rho A))). A tight coil curls, and its
+#: turns collide, at the bending-wave rate of its own curvature, which the rod map (reference 12.5
+#: mm coil) does not cover. Measured by `scripts/stability_map.py` (coil sweep,
+#: results/stability/coil_map.csv: one filament with and without contact, coil radii 2.1-12.5 mm, E
+#: 1-10 MPa, euler and implicitfast); the smallest dt c kappa^2 at which a limit was found is
+#: printed by the script and quoted in the README (0.6 lies below all of them).
 COIL_TIMESTEP_NUMBER = 0.6
 MAP_COIL_RADII_M = (0.0125, 0.008, 0.0058, 0.004, 0.0028, 0.0021)
 MAP_COIL_MODULI_PA = (1e6, 3e6, 10e6)
@@ -298,7 +307,7 @@ def envelope_warnings(config: object) -> list[str]:
     `config` is anything with `.gripper` and `.numerics` (and optionally `.effects`).
 
     Checks the timestep against ENVELOPE for the configuration's integrator, equivalent segments and
-    modulus, and against the coil limit (COIL_TIMESTEP_NUMBER) when filaments can touch; the point
+    modulus, and against the coil limit (COIL_TIMESTEP_NUMBER) of the actuated curvature; the point
     against the range the map covers; the numerics the map did not vary (twist armature, damping
     time) in their destabilizing direction; and the actuation: rest rotation per segment above
     MAX_TURN_PER_SEGMENT_RAD, coil radius below MIN_COIL_RADIUS_RATIO filament radii.
@@ -332,8 +341,8 @@ def envelope_warnings(config: object) -> list[str]:
         out.append(
             f"numerics.timestep_s = {num.timestep_s:g} s is too long for the actuated coil: "
             f"dt c kappa^2 = {num.timestep_s * coil_rate_per_s(config):.3g} > "
-            f"{COIL_TIMESTEP_NUMBER:g} (c = sqrt(EI / (rho A))), so touching turns collide faster "
-            f"than the timestep resolves; use at most {coil * 1e3:.3g} ms"
+            f"{COIL_TIMESTEP_NUMBER:g} (c = sqrt(EI / (rho A))): the coil curls faster than the "
+            f"timestep resolves; use at most {coil * 1e3:.3g} ms"
         )
     base = base_numerics(num.integrator)
     if num.twist_armature_scale < base.twist_armature_scale:
@@ -394,11 +403,6 @@ def coil_rate_per_s(config: object) -> float:
 
 
 def coil_timestep_limit_s(config: object) -> float:
-    """COIL_TIMESTEP_NUMBER / (c kappa^2), s.
-
-    Infinite when filaments can touch neither themselves nor each other, or are not actuated.
-    """
-    effects = getattr(config, "effects", None)
-    touching = effects is None or effects.filament_self_contact or effects.filament_filament_contact
+    """COIL_TIMESTEP_NUMBER / (c kappa^2), s (infinite when not actuated)."""
     rate = coil_rate_per_s(config)
-    return COIL_TIMESTEP_NUMBER / rate if touching and rate > 0 else math.inf
+    return COIL_TIMESTEP_NUMBER / rate if rate > 0 else math.inf

@@ -15,8 +15,9 @@ one: smaller timesteps are then marked stable without running ("inferred"); `--f
 point (a full run of euler and rk4 at 24 and 64 segments found no column where a stable timestep
 had an unstable smaller one).
 
-Coil sweep: one filament, every contact on, curling to coils of 2.1-12.5 mm (E 1-10 MPa, euler and
-implicitfast): the largest timestep stable for two seeds, against the coil rate c kappa^2.
+Coil sweep: one filament, with every contact on and with none, curling to coils of 2.1-12.5 mm
+(E 1-10 MPa, euler and implicitfast): the largest timestep stable for two seeds, against the coil
+rate c kappa^2.
 
 Writes stability_map.{csv,png} and coil_map.{csv,png}, prints the ENVELOPE table kept in
 `entangle_bench.stability`, every preset's envelope and the coil sweep. About 6 minutes on one core.
@@ -42,6 +43,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from entangle_bench import effects as fx
 from entangle_bench import stability
 from entangle_bench.filament import REFERENCE_COIL_RADIUS_M, FilamentParams
 from entangle_bench.gripper import GripperParams
@@ -68,9 +70,9 @@ def probe_config(
 
 
 def coil_config(
-    integrator: str, radius_m: float, modulus_pa: float, timestep_s: float
+    integrator: str, radius_m: float, modulus_pa: float, timestep_s: float, contact: bool
 ) -> SceneConfig:
-    """One reference filament, every contact on, curling to a coil of `radius_m` (m).
+    """One reference filament curling to a coil of `radius_m` (m), every contact on or none.
 
     Segments: at most MAX_TURN_PER_SEGMENT_RAD of rest rotation each, at least 16.
     """
@@ -84,33 +86,36 @@ def coil_config(
     )
     gripper = GripperParams(filament=filament, ring_diameters_m=(0.0,), ring_counts=(1,))
     numerics = dataclasses.replace(stability.base_numerics(integrator), timestep_s=timestep_s)
-    return SceneConfig(gripper=gripper, numerics=numerics)
+    effects = fx.Effects() if contact else fx.NO_CONTACT
+    return SceneConfig(gripper=gripper, effects=effects, numerics=numerics)
 
 
 def coil_sweep(args: argparse.Namespace) -> pd.DataFrame:
-    """Largest stable timestep (two seeds) per integrator, modulus and coil radius."""
+    """Largest stable timestep (two seeds) per contact, integrator, modulus and coil radius."""
     columns = [
-        (i, e, r)
+        (c, i, e, r)
+        for c in (True, False)
         for i in stability.MAP_COIL_INTEGRATORS
         for e in stability.MAP_COIL_MODULI_PA
         for r in stability.MAP_COIL_RADII_M
     ]
     rows = []
-    for integrator, modulus, radius in tqdm(
+    for contact, integrator, modulus, radius in tqdm(
         columns, desc="coil sweep", unit="point", file=sys.stderr
     ):
         largest, first_unstable, wall = 0.0, float("nan"), 0.0
         for dt in sorted(args.timesteps, reverse=True):
-            config = coil_config(integrator, radius, modulus, dt)
+            config = coil_config(integrator, radius, modulus, dt, contact)
             results = [stability.probe(config, duration_s=args.duration, seed=s) for s in (0, 1)]
             wall += sum(r.wall_time_s for r in results)
             if all(r.stable for r in results):
                 largest = dt
                 break
             first_unstable = dt
-        rate = stability.coil_rate_per_s(coil_config(integrator, radius, modulus, 1e-3))
+        rate = stability.coil_rate_per_s(config)
         rows.append(
             {
+                "contact": contact,
                 "integrator": integrator,
                 "youngs_modulus_pa": modulus,
                 "coil_radius_m": radius,
@@ -127,32 +132,37 @@ def coil_sweep(args: argparse.Namespace) -> pd.DataFrame:
 
 def plot_coil(frame: pd.DataFrame, path: Path) -> None:
     """Largest stable timestep against the coil rate c kappa^2, with the envelope's coil limit."""
-    fig, ax = plt.subplots(figsize=(6.0, 4.2))
-    for (integrator, modulus), part in frame.groupby(["integrator", "youngs_modulus_pa"]):
-        color = {1e6: "tab:blue", 3e6: "tab:orange", 10e6: "tab:green"}.get(modulus, "tab:gray")
-        euler = integrator == "euler"
-        ax.scatter(
-            part["coil_rate_per_s"],
-            part["largest_stable_timestep_s"] * 1e3,
-            marker="o" if euler else "s",
-            s=70 if euler else 22,
-            facecolors="none" if euler else color,
-            edgecolors=color,
-            label=f"{integrator}, E = {modulus / 1e6:g} MPa",
-        )
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.2), sharex=True, sharey=True)
     rates = np.geomspace(frame["coil_rate_per_s"].min() / 1.5, frame["coil_rate_per_s"].max() * 1.5)
-    ax.plot(
-        rates,
-        stability.COIL_TIMESTEP_NUMBER / rates * 1e3,
-        "k--",
-        label=f"envelope: dt c kappa^2 = {stability.COIL_TIMESTEP_NUMBER:g}",
-    )
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("coil rate c kappa^2 (1/s)")
-    ax.set_ylabel("largest stable timestep (ms)")
-    ax.set_title("Tight coils touching themselves (one filament, 0.6 s probes)", fontsize=10)
-    ax.legend(fontsize=7)
+    for ax, contact in zip(axes, (True, False)):
+        cell = frame[frame["contact"] == contact]
+        for (integrator, modulus), part in cell.groupby(["integrator", "youngs_modulus_pa"]):
+            color = {1e6: "tab:blue", 3e6: "tab:orange", 10e6: "tab:green"}.get(modulus, "gray")
+            euler = integrator == "euler"
+            ax.scatter(
+                part["coil_rate_per_s"],
+                part["largest_stable_timestep_s"] * 1e3,
+                marker="o" if euler else "s",
+                s=70 if euler else 22,
+                facecolors="none" if euler else color,
+                edgecolors=color,
+                label=f"{integrator}, E = {modulus / 1e6:g} MPa",
+            )
+        ax.plot(
+            rates,
+            stability.COIL_TIMESTEP_NUMBER / rates * 1e3,
+            "k--",
+            label=f"envelope: dt c kappa^2 = {stability.COIL_TIMESTEP_NUMBER:g}",
+        )
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("coil rate c kappa^2 (1/s)")
+        ax.set_title(
+            f"one filament, {'every contact on' if contact else 'no contact'}", fontsize=10
+        )
+    axes[0].set_ylabel("largest stable timestep (ms)")
+    axes[0].legend(fontsize=7)
+    fig.suptitle("Tight coils: coil radius 2.1-12.5 mm, 0.6 s probes", fontsize=11)
     fig.tight_layout()
     _save(fig, path)
 
@@ -356,13 +366,14 @@ def main(argv: list[str] | None = None) -> int:
         f"{stability.COIL_TIMESTEP_NUMBER:g})"
     )
     print(
-        "| integrator | E (MPa) | coil radius (mm) | segments | largest stable dt (ms) | "
+        "| contact | integrator | E (MPa) | coil radius (mm) | segments | largest stable dt (ms) | "
         "dt c kappa^2 |"
     )
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     for _, row in coils.iterrows():
         print(
-            f"| {row['integrator']} | {row['youngs_modulus_pa'] / 1e6:g} | "
+            f"| {'all' if row['contact'] else 'none'} | "
+            f"{row['integrator']} | {row['youngs_modulus_pa'] / 1e6:g} | "
             f"{row['coil_radius_m'] * 1e3:g} | {row['n_segments']} | "
             f"{row['largest_stable_timestep_s'] * 1e3:g} | {row['stable_number']:.2f} |"
         )

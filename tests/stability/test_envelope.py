@@ -4,6 +4,7 @@ import dataclasses
 
 import pytest
 
+from entangle_bench import effects as fx
 from entangle_bench import stability
 from entangle_bench.filament import FilamentParams
 from entangle_bench.gripper import GripperParams
@@ -25,15 +26,20 @@ def test_every_preset_timestep_is_inside_the_measured_table():
 
 
 def test_lookup_is_conservative_between_measured_points():
-    """Between grid points the finer segmentation and the stiffer modulus decide."""
+    """Between grid points the least stable of the surrounding measured points decides."""
     table = {"euler": {12: (8e-3, 4e-3, 2e-3), 24: (4e-3, 2e-3, 1e-3)}}
     moduli = stability.MAP_MODULI_PA[:3]
     assert stability.max_stable_timestep_s("euler", 12, moduli[1], table) == 4e-3
     assert stability.max_stable_timestep_s("euler", 13, moduli[1], table) == 2e-3
     assert stability.max_stable_timestep_s("euler", 12, moduli[1] * 1.01, table) == 2e-3
+    assert stability.max_stable_timestep_s("euler", 4, moduli[0], table) == 8e-3
     assert stability.max_stable_timestep_s("euler", 25, moduli[0], table) is None
     assert stability.max_stable_timestep_s("euler", 12, moduli[2] * 1.01, table) is None
+    assert stability.max_stable_timestep_s("euler", 12, moduli[0] * 0.99, table) is None
     assert stability.max_stable_timestep_s("rk4", 12, moduli[0], table) is None
+    # Softer can be less stable (implicit integrators, fine soft filaments): both sides count.
+    soft = {"implicitfast": {12: (1e-3, 4e-3, 8e-3)}}
+    assert stability.max_stable_timestep_s("implicitfast", 12, moduli[0] * 2, soft) == 1e-3
 
 
 def test_equivalent_filament_maps_geometry_onto_the_reference():
@@ -75,7 +81,11 @@ def test_out_of_envelope_settings_are_named():
     )
     stiff_coil = warnings_for(
         "fast",
-        ["gripper.filament.youngs_modulus_pa=1e7", "gripper.pressure_pa=1.72e6", "numerics.timestep_s=0.004"],
+        [
+            "gripper.filament.youngs_modulus_pa=1e7",
+            "gripper.pressure_pa=1.72e6",
+            "numerics.timestep_s=0.004",
+        ],
     )
     assert any("too long for the actuated coil" in w for w in stiff_coil)
     # Implicit integration keeps stiff fine filaments inside the envelope.
@@ -131,14 +141,10 @@ def test_coil_limit_catches_a_tight_stiff_coil():
     safe = dataclasses.replace(config, numerics=dataclasses.replace(numerics, timestep_s=limit))
     assert stability.envelope_warnings(safe) == []
     assert all(stability.probe(safe, duration_s=0.6, seed=s).stable for s in (0, 1))
-    # Without filament contact the coil limit does not apply (nothing collides).
-    apart = dataclasses.replace(
-        config,
-        effects=dataclasses.replace(
-            config.effects, filament_self_contact=False, filament_filament_contact=False
-        ),
-    )
-    assert stability.stable_timestep_s(apart) == 8e-3
+    # Without contact the same coil is unstable at 8 ms too: the limit holds for the rest shape.
+    apart = dataclasses.replace(config, effects=fx.NO_CONTACT)
+    assert stability.stable_timestep_s(apart) == limit
+    assert not all(stability.probe(apart, duration_s=0.6, seed=s).stable for s in (0, 1, 2))
 
 
 def test_presets_use_the_numerics_the_map_was_measured_with():
