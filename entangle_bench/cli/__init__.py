@@ -43,6 +43,8 @@ def main(argv: list[str] | None = None) -> int:
     except EntangleBenchError as exc:
         print(f"entangle-bench: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into `head` and closed early
+        return 0
     except KeyboardInterrupt:
         print("entangle-bench: interrupted", file=sys.stderr)
         return 130
