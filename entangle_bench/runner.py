@@ -144,8 +144,9 @@ def _simulate(
                     taken.add(name)
                     path = None if state_dir is None else state_dir / f"{spec.trial_id}_{name}.npz"
                     row.update(snapshot(physics, name, path))
-    except (WatchdogTripped, PhysicsError) as exc:
-        reason = exc.reason if isinstance(exc, WatchdogTripped) else f"physics_error:{exc}"
+    except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
+        # FatalError: MuJoCo aborted the step, e.g. an exploding state overflowed the constraint arena.
+        reason = exc.reason if isinstance(exc, WatchdogTripped) else f"{type(exc).__name__}:{exc}"
         row.update(outcome="unstable", unstable_reason=reason, unstable_time_s=physics.time())
     if row["outcome"] != "unstable":
         success, mode = task.outcome.classify()

@@ -114,6 +114,10 @@ def build_scene(
         group.update({g: fx.FILAMENT for g in handle.geom_names})
     object_geoms = [g.name for g in spec.geoms if g.name.startswith("object")]
     group.update({g: fx.OBJECT for g in object_geoms})
+    # Material first: explicit contact pairs made by apply_effects copy it from the geoms.
+    for geom in spec.geoms:
+        geom.friction = (contact.friction, contact.torsional_friction_m, contact.rolling_friction_m)
+        geom.solref = (contact.timeconst_s, contact.dampratio)
     fx.apply_effects(
         spec,
         config.effects,
@@ -121,10 +125,8 @@ def build_scene(
         [list(h.body_names) for h in gripper.filaments],
         filament_positions(config.gripper),
         config.gripper.filament.length_m + config.gripper.filament.outer_radius_m,
+        body_volumes_m3=None if info is None else {"object": info.volume_m3},
     )
-    for geom in spec.geoms:
-        geom.friction = (contact.friction, contact.torsional_friction_m, contact.rolling_friction_m)
-        geom.solref = (contact.timeconst_s, contact.dampratio)
     model = spec.compile()
     gripper.bind(model)
     filament_of_geom = np.full(model.ngeom, -1, dtype=int)
