@@ -14,14 +14,7 @@ from entangle_bench.watchdog import (
     mechanical_energy,
 )
 
-
-@pytest.fixture(autouse=True)
-def quiet_mujoco():
-    """MuJoCo prints and logs the warnings these tests provoke; silence it, then restore."""
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(lambda text: None)
-    yield
-    mujoco.set_mju_user_warning(previous)
+pytestmark = pytest.mark.usefixtures("quiet_mujoco")
 
 
 def pendulum(gravcomp: float = 0.0, box: bool = True) -> tuple[mujoco.MjModel, mujoco.MjData]:

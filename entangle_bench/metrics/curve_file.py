@@ -29,17 +29,23 @@ class CurveFile:
     curves: list[np.ndarray]  # (M_k, 3) float64 each, m
 
 
-def load_curves(path: str | Path, *, drop_degenerate: bool = False) -> CurveFile:
-    """Read and validate curves from an .npz archive; FileFormatError names the file and key."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(f"{path}: no such file")
+def _open_npz(path: Path) -> np.lib.npyio.NpzFile:
+    """Open an .npz archive; FileFormatError if it is unreadable or a bare .npy array."""
     try:
         archive = np.load(path, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
         raise FileFormatError(f"{path}: not a readable .npz archive ({exc})") from None
     if not isinstance(archive, np.lib.npyio.NpzFile):
         raise FileFormatError(f"{path}: a single .npy array, not an .npz archive")
+    return archive
+
+
+def load_curves(path: str | Path, *, drop_degenerate: bool = False) -> CurveFile:
+    """Read and validate curves from an .npz archive; FileFormatError names the file and key."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(f"{path}: no such file")
+    archive = _open_npz(path)
     with archive:
         keys = [k for k in archive.files if k not in _SIDE_KEYS]
         if "curves" in keys:
@@ -91,12 +97,7 @@ def _read(archive: np.lib.npyio.NpzFile, path: Path, key: str) -> np.ndarray:
 def load_contacts(path: str | Path) -> tuple[np.ndarray, np.ndarray] | None:
     """Contact points (n, 3) in m and kinds (n,) str from an archive, or None if it has none."""
     path = Path(path)
-    try:
-        archive = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise FileFormatError(f"{path}: not a readable .npz archive ({exc})") from None
-    if not isinstance(archive, np.lib.npyio.NpzFile):
-        raise FileFormatError(f"{path}: a single .npy array, not an .npz archive")
+    archive = _open_npz(path)
     with archive:
         if "contact_points" not in archive.files:
             return None

@@ -19,7 +19,7 @@ import time
 import mujoco
 import numpy as np
 
-from entangle_bench.effects import Effects, apply_effects
+from entangle_bench.effects import NO_CONTACT, apply_effects
 from entangle_bench.errors import ParameterError
 from entangle_bench.filament import FilamentParams, add_filament, rest_quaternions
 from entangle_bench.presets import Numerics, get_preset
@@ -79,13 +79,7 @@ def build_rod(
         quat=tuple(quat),
         twist_armature_scale=numerics.twist_armature_scale,
     )
-    nothing = Effects(
-        filament_filament_contact=False,
-        filament_self_contact=False,
-        filament_object_contact=False,
-        ground_contact=False,
-    )
-    apply_effects(spec, nothing, {}, [list(handle.body_names)], np.zeros((1, 2)), case.length)
+    apply_effects(spec, NO_CONTACT, {}, [list(handle.body_names)], np.zeros((1, 2)), case.length)
     model = spec.compile()
     return model, handle.qpos_addresses(model), list(handle.body_names)
 
