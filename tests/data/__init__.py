@@ -1,0 +1,1 @@
+"""Stored reference data for tests, and the scripts that regenerate it."""

@@ -1,0 +1,94 @@
+"""Regenerate tests/data/pinned_rows.json: a handful of seeded short trials through the public runner API.
+
+    python -m tests.data.make_pinned_rows
+
+`tests/test_pinned_rows.py` recomputes these rows and compares them column by column, so a refactor that
+changes any simulated number fails. Regenerate only on purpose (e.g. after a calibration changes the
+physics defaults) and say so in the commit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from entangle_bench.runner import TrialSpec, run_trial
+from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
+
+PATH = Path(__file__).resolve().parent / "pinned_rows.json"
+
+#: (task, preset, seed, centering offset in m or None for the task default, overrides after SHORT_SEQUENCE).
+#: The weightless case lifts (it pins the success path: lift height, hold time); the stiff fine one is unstable.
+CASES: tuple[tuple[str, str, int, float | None, tuple[str, ...]], ...] = (
+    ("top_drape/eight_branch_tree", "fast", 0, None, ()),
+    ("top_drape/eight_branch_tree", "balanced", 1, None, ()),
+    ("top_drape/eight_branch_tree", "balanced", 0, 0.02, ()),
+    ("top_drape/sphere", "fast", 1, None, ()),
+    ("top_drape/sphere", "balanced", 0, 0.01, ()),
+    (
+        "top_drape/eight_branch_tree",
+        "fast",
+        2,
+        None,
+        ("effects.gravity=false", "phases.drape_depth_m=0.1", "phases.lift_height_m=0.1"),
+    ),
+    (
+        "top_drape/eight_branch_tree",
+        "fast",
+        2,
+        None,
+        ("gripper.filament.youngs_modulus_pa=3e7", "gripper.filament.n_segments=64"),
+    ),
+)
+
+#: Row columns that must not change; `actuated.*` and `held.*` are added from the row itself.
+COLUMNS = (
+    "trial_id",
+    "outcome",
+    "success",
+    "failure_mode",
+    "unstable_reason",
+    "unstable_time_s",
+    "lift_height_m",
+    "hold_time_reached_s",
+    "sim_time_s",
+)
+
+
+def spec_of(case: dict[str, Any]) -> TrialSpec:
+    """The trial spec of one stored case, built through the public API."""
+    config = resolve_config(case["task"], case["preset"], case["overrides"], case["offset_m"])
+    return TrialSpec(case["task"], case["task"].split("/")[-1], config, case["seed"], case["preset"])
+
+
+def pinned_columns(row: dict[str, Any]) -> dict[str, Any]:
+    """The deterministic columns of a results row (identity, outcome, metrics; no wall time or versions)."""
+    keys = list(COLUMNS) + sorted(k for k in row if k.startswith(("actuated.", "held.")))
+    return {k: row[k] for k in keys}
+
+
+def make_rows() -> list[dict[str, Any]]:
+    """Run every case and return [{"case": ..., "row": ...}]."""
+    out = []
+    for task, preset, seed, offset, extra in CASES:
+        overrides = [*SHORT_SEQUENCE, *extra]
+        case = {"task": task, "preset": preset, "seed": seed, "offset_m": offset, "overrides": overrides}
+        row = pinned_columns(run_trial(spec_of(case)))
+        if any(isinstance(v, float) and not math.isfinite(v) for v in row.values()):
+            raise ValueError(f"non-finite value in pinned row of {case}")
+        out.append({"case": case, "row": row})
+    return out
+
+
+def main() -> int:
+    """Write pinned_rows.json next to this file."""
+    PATH.write_text(json.dumps(make_rows(), indent=1, sort_keys=True) + "\n")
+    print(f"wrote {PATH}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
