@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
-from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Literal
@@ -32,21 +30,10 @@ from scipy.spatial import ConvexHull
 
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.filament import FilamentParams
+from entangle_bench.geoms import GeomClasses
 
 GROUND, OBJECT, FILAMENT = 1, 2, 4
 CONDIM = {"none": 1, "sliding": 3, "torsional": 4, "rolling": 6}
-
-#: Collision-pair kinds reported by `pair_kinds`, in display order.
-PAIR_KINDS = (
-    "filament_self",
-    "filament_filament",
-    "filament_object",
-    "filament_ground",
-    "object_ground",
-    "other",
-)
-
-_FILAMENT_GEOM = re.compile(r"^f(\d+)_g\d+$")
 
 
 @dataclass(frozen=True)
@@ -353,42 +340,10 @@ def collision_pairs(model: mujoco.MjModel) -> list[tuple[int, int]]:
     return sorted(out)
 
 
-def geom_roles(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
-    """Per geom: role ('filament', 'object', 'ground' or 'other') and filament index (-1 if none).
-
-    Roles come from the scene's naming rules: `fII_gJJJ` filament capsules, `object*`, `ground`.
-    """
-    roles = np.full(model.ngeom, "other", dtype=object)
-    index = np.full(model.ngeom, -1)
-    for g in range(model.ngeom):
-        name = model.geom(g).name
-        match = _FILAMENT_GEOM.match(name)
-        if match:
-            roles[g], index[g] = "filament", int(match.group(1))
-        elif name.startswith("object"):
-            roles[g] = "object"
-        elif name == "ground":
-            roles[g] = "ground"
-    return roles, index
-
-
 def pair_kinds(model: mujoco.MjModel, pairs: list[tuple[int, int]] | None = None) -> dict[str, int]:
-    """Number of collision pairs of each kind (every kind of PAIR_KINDS, zeros included)."""
+    """Number of collision pairs of each kind (every kind of `geoms.KINDS`, zeros included)."""
     pairs = collision_pairs(model) if pairs is None else pairs
-    roles, index = geom_roles(model)
-    kinds = {
-        ("filament", "object"): "filament_object",
-        ("filament", "ground"): "filament_ground",
-        ("ground", "object"): "object_ground",
-    }
-    counts: Counter[str] = Counter()
-    for g1, g2 in pairs:
-        r1, r2 = sorted((roles[g1], roles[g2]))
-        if r1 == r2 == "filament":
-            counts["filament_self" if index[g1] == index[g2] else "filament_filament"] += 1
-        else:
-            counts[kinds.get((r1, r2), "other")] += 1
-    return {kind: counts.get(kind, 0) for kind in PAIR_KINDS}
+    return GeomClasses.from_model(model).count_kinds(np.asarray(pairs, dtype=np.int64).reshape(-1, 2))
 
 
 def disabled_stages(model: mujoco.MjModel) -> list[str]:

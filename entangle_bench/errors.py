@@ -26,3 +26,15 @@ class MeshError(EntangleBenchError, ValueError):
 
 class FileFormatError(EntangleBenchError, ValueError):
     """A suite, rod-case or curve file is malformed; the message names file, key and problem."""
+
+
+class DuplicateNameError(EntangleBenchError, ValueError):
+    """A name is registered twice in one registry."""
+
+    def __init__(self, kind: str, name: str):
+        self.kind, self.name = kind, name
+        super().__init__(f"{kind} {name!r} is already registered")
+
+
+class OutcomeError(EntangleBenchError, RuntimeError):
+    """A task decided its outcome twice, or a stable trial ended without one."""

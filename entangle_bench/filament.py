@@ -20,7 +20,6 @@ kappa = c * p * (1 - delta)^2 * eps / (r * E).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -29,6 +28,7 @@ import numpy as np
 
 from entangle_bench.config import check_range
 from entangle_bench.errors import ParameterError
+from entangle_bench.presets import DEFAULT_PRESET, PRESETS
 
 #: Default operating pressure of the reference gripper (Becker et al. 2022), Pa.
 REFERENCE_PRESSURE_PA = 172e3
@@ -57,7 +57,8 @@ class FilamentParams:
     youngs_modulus_pa: float = 1.0e6
     poisson_ratio: float = 0.49
     density_kg_m3: float = 1100.0
-    n_segments: int = 24
+    n_segments: int = PRESETS[DEFAULT_PRESET].n_segments
+    """Capsule segments of the chain; the default is the default numerical preset's (presets set it per run)."""
     damping_time_s: float = 0.02
     """Kelvin-Voigt relaxation time: each joint's damping is its stiffness times this, N m s/rad."""
     curvature_calibration: float = float("nan")
@@ -297,8 +298,3 @@ def rest_quaternions(n_segments: int, ds: float, darboux: np.ndarray) -> np.ndar
     out[0] = rest_rotation_quat(darboux, ds / 2)
     out[1:] = rest_rotation_quat(darboux, ds)
     return out
-
-
-def with_segments(params: FilamentParams, n_segments: int) -> FilamentParams:
-    """Copy of `params` with another segment count."""
-    return dataclasses.replace(params, n_segments=n_segments)

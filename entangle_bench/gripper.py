@@ -92,6 +92,13 @@ class GripperParams:
         return len(filament_positions(self))
 
     @property
+    def actuation_energy_j(self) -> float:
+        """Bending energy 0.5 EI kappa^2 L of all filaments at the operating pressure, J (the watchdog's W_act)."""
+        fil = self.filament
+        kappa = fil.curvature_per_m(self.pressure_pa)
+        return self.n_filaments * 0.5 * fil.bending_stiffness_nm2 * kappa**2 * fil.length_m
+
+    @property
     def areal_density(self) -> float:
         """phi_G = r^2 / d^2 with d the mean nearest-neighbour root spacing (dimensionless)."""
         pts = filament_positions(self)

@@ -1,20 +1,23 @@
 """Numerical presets: resolution, timestep, integrator and solver settings that trade accuracy for time.
 
-Each preset was chosen from the accuracy-time study (`scripts/accuracy_time_study.py`, README); its measured
+Each preset was chosen from the accuracy-time study (`entangle_bench.studies.accuracy_time`, README); its measured
 rod-shape error and cost are recorded there. A preset is a segment count plus `Numerics`; physics lives in
 FilamentParams and GripperParams. Applying a preset writes its segment count into the filament parameters
-(the one place a segment count lives), and user overrides (`--set gripper.filament.n_segments=..`) come after.
+(`apply_preset`, the one place presets apply), and user overrides (`--set gripper.filament.n_segments=..`) come after.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, TypeVar
 
 import mujoco
 
 from entangle_bench.config import check_choice, check_range
-from entangle_bench.errors import UnknownNameError
+from entangle_bench.registry import Registry
+
+C = TypeVar("C")
 
 Integrator = Literal["euler", "implicitfast", "implicit", "rk4"]
 Solver = Literal["cg", "newton", "pgs"]
@@ -84,14 +87,25 @@ class Preset:
     numerics: Numerics
 
 
-PRESETS: dict[str, Preset] = {
-    # From the accuracy-time front (results/accuracy_time/report.md): fast uses 2 ms because a 4 ms step
-    # tripled its curl error for 20 % less cost; balanced is the cheapest point under 2 % of L that still runs
-    # 3x real time in the default trial. The study found accurate 4.5x cheaper with CG at 32 segments and 1 ms
-    # for the same rod error; that change waits for the stability map to be re-measured with those numerics.
-    "fast": Preset("fast", 12, Numerics(timestep_s=2e-3)),
-    "balanced": Preset("balanced", 16, Numerics(timestep_s=2e-3)),
-    "accurate": Preset(
+#: Numerical presets by name. From the accuracy-time front (results/accuracy_time/report.md): fast uses 2 ms
+#: because a 4 ms step tripled its curl error for 20 % less cost; balanced is the cheapest point under 2 % of L
+#: that still runs 3x real time in the default trial. The study found accurate 4.5x cheaper with CG at 32
+#: segments and 1 ms for the same rod error; that change waits for the stability map to be re-measured with
+#: those numerics.
+PRESETS: Registry[Preset] = Registry("preset")
+PRESETS.add(
+    "fast",
+    Preset("fast", 12, Numerics(timestep_s=2e-3)),
+    description="12 segments, 2 ms, Euler, CG: screening sweeps",
+)
+PRESETS.add(
+    "balanced",
+    Preset("balanced", 16, Numerics(timestep_s=2e-3)),
+    description="16 segments, 2 ms, Euler, CG: the default, 3x real time",
+)
+PRESETS.add(
+    "accurate",
+    Preset(
         "accurate",
         40,
         Numerics(
@@ -103,14 +117,24 @@ PRESETS: dict[str, Preset] = {
             twist_armature_scale=100.0,
         ),
     ),
-}
+    description="40 segments, 0.5 ms, implicitfast, Newton: reference runs",
+)
 
 DEFAULT_PRESET = "balanced"
 
 
 def get_preset(name: str) -> Preset:
     """The named preset; unknown names raise UnknownNameError listing the known ones."""
-    try:
-        return PRESETS[name]
-    except KeyError:
-        raise UnknownNameError("preset", name, list(PRESETS)) from None
+    return PRESETS.get(name)
+
+
+def apply_preset(config: C, name: str | None = None) -> C:
+    """`config` with a preset's segment count and numerics (default: DEFAULT_PRESET); the one place presets apply.
+
+    `config` is any frozen dataclass with `gripper.filament.n_segments` and `numerics` fields (task configs,
+    `scene.SceneConfig`).
+    """
+    preset = get_preset(name or DEFAULT_PRESET)
+    filament = dataclasses.replace(config.gripper.filament, n_segments=preset.n_segments)
+    gripper = dataclasses.replace(config.gripper, filament=filament)
+    return dataclasses.replace(config, gripper=gripper, numerics=preset.numerics)

@@ -1,10 +1,14 @@
-"""The trial runner: owns the step loop and the watchdog, runs trials in worker processes, writes results.
+"""The trial runner: the one step loop, with the watchdog, for every task, study, probe and test.
 
-A trial is (task, resolved configuration, seed). `run_trial` drives the dm-control environment with the
-scripted top-drape policy, checks the watchdog after every control step, records entanglement metrics at
-the end of actuation and at the end of the hold, and returns one results row. `run_trials` runs many trials
-through an `Executor` (local worker processes by default), appends each finished row to the trial log at
-once, skips trials already in the log, and shows progress.
+A trial is (task, resolved configuration, seed). `simulate` builds the task's dm-control environment, drives
+it with the task's scripted policy one control step at a time, checks the watchdog after every step, takes the
+snapshots the task declares at the start of their phases, logs the task's per-step series, calls the
+observers, and returns the results row with the final environment and watchdog. A trial the watchdog stops,
+or one MuJoCo cannot continue (`PhysicsError`, `mujoco.FatalError`), is `unstable`, whatever the task had
+decided: it is never scored. `run_trial` adds the trial's identity, configuration and versions to the row
+(and can retry an unstable trial at half the timestep); `run_trials` runs many through an `Executor` (local
+worker processes by default), appends each finished row to the trial log at once, skips trials already in the
+log, and shows progress.
 """
 
 from __future__ import annotations
@@ -19,36 +23,40 @@ import os
 import platform
 import sys
 import time
-from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 import mujoco
 import numpy as np
+from dm_control.rl import control
 from dm_control.rl.control import PhysicsError
 from tqdm import tqdm
 
 import entangle_bench
 from entangle_bench.config import to_flat_dict
-from entangle_bench.metrics.acn import acn_total
-from entangle_bench.metrics.contacts import contact_summary
-from entangle_bench.metrics.local_fields import local_fields
-from entangle_bench.recording import TrialRecorder
+from entangle_bench.errors import OutcomeError
+from entangle_bench.observers import McapObserver, Observer
 from entangle_bench.results import TrialLog
-from entangle_bench.suite.top_drape import TopDrapeConfig, make_environment, scripted_action
-from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogTripped
+from entangle_bench.suite import TASKS
+from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
-LOCAL_ACN_DIAMETER_M = 0.02
+
+def trial_id(task: str, config: Any, seed: int) -> str:
+    """Stable 16-hex-digit id of (task, resolved configuration, seed)."""
+    payload = json.dumps([task, to_flat_dict(config), seed], sort_keys=True, default=repr)
+    return hashlib.sha1(payload.encode()).hexdigest()[:16]
 
 
 @dataclass(frozen=True)
 class TrialSpec:
-    """One trial to run."""
+    """One trial to run: a registered task, its resolved config (the task's config type) and a seed."""
 
     task: str
+    """'domain/name' of a registered task."""
     condition: str
-    config: TopDrapeConfig
+    config: Any
     seed: int
     preset: str
     params: tuple[tuple[str, Any], ...] = ()
@@ -57,10 +65,38 @@ class TrialSpec:
     @property
     def trial_id(self) -> str:
         """Stable id of (task, resolved configuration, seed)."""
-        payload = json.dumps(
-            [self.task, to_flat_dict(self.config), self.seed], sort_keys=True, default=repr
-        )
-        return hashlib.sha1(payload.encode()).hexdigest()[:16]
+        return trial_id(self.task, self.config, self.seed)
+
+
+@dataclass(eq=False)
+class TrialResult:
+    """What `simulate` returns: the row, and the final environment, watchdog and per-step series."""
+
+    row: dict[str, Any]
+    env: control.Environment
+    watchdog: Watchdog
+    series: dict[str, np.ndarray] = field(default_factory=dict)
+    """Per-control-step values the task logged (`BenchTask.series_point`), with `time_s`."""
+
+    @property
+    def stable(self) -> bool:
+        """Whether the trial ran to its end without the watchdog or MuJoCo stopping it."""
+        return self.row["outcome"] != "unstable"
+
+    @property
+    def reason(self) -> str:
+        """Why the trial was unstable ('' if stable)."""
+        return self.row["unstable_reason"]
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time reached (the stop time if unstable), s."""
+        return self.row["sim_time_s"]
+
+    @property
+    def stats(self) -> WatchdogStats:
+        """The watchdog's worst values."""
+        return self.watchdog.stats
 
 
 def versions() -> dict[str, str]:
@@ -74,125 +110,112 @@ def versions() -> dict[str, str]:
     }
 
 
-def snapshot(physics: Any, prefix: str, state_path: Path | None) -> dict[str, float]:
-    """Entanglement and contact metrics of the current state, keys prefixed; saves the state if asked.
+def _save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write arrays to `path` as compressed .npz, atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.npz")
+    np.savez_compressed(tmp, **arrays)
+    os.replace(tmp, path)
 
-    The saved .npz holds `curves` (F, n + 1, 3), `contact_points` (c, 3), `contact_kinds` (c,) and
-    `contact_forces_n` (c,): the input of scripts/plot_entanglement.py.
+
+def _unstable_reason(exc: BaseException) -> str:
+    """One-line reason of an unstable trial."""
+    return exc.reason if isinstance(exc, WatchdogTripped) else f"{type(exc).__name__}:{exc}"
+
+
+def simulate(
+    task: str,
+    config: Any,
+    seed: int,
+    *,
+    limits: WatchdogLimits | None = None,
+    observers: Sequence[Observer] = (),
+    state_dir: Path | None = None,
+) -> TrialResult:
+    """Run one trial of a registered task with its scripted policy under the watchdog; return row and final state.
+
+    `limits` replaces the task's watchdog limits. Observers see the environment after reset (before the
+    watchdog takes its reference energy) and after every control step. With `state_dir`, snapshots and the
+    task's per-step series are saved there as `<trial_id>_<snapshot>.npz` and `<trial_id>_series.npz`.
     """
-    curves = physics.centerlines()
-    fields = local_fields(curves, LOCAL_ACN_DIAMETER_M)
-    scene = physics.scene
-    contacts = contact_summary(
-        physics.model.ptr, physics.data.ptr, scene.filament_of_geom, scene.is_object_geom
-    )
-    row = {
-        f"{prefix}.acn_total": acn_total(curves),
-        f"{prefix}.local_acn_mean": fields.mean_acn,
-        f"{prefix}.local_acn_max": fields.max_acn,
-        f"{prefix}.local_count_mean": fields.mean_count,
-    }
-    row.update({f"{prefix}.contacts.{k}": v for k, v in contacts.counts.items()})
-    if state_path is not None:
-        state_path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = state_path.with_name(f".{state_path.name}.tmp.npz")
-        np.savez_compressed(
-            tmp,
-            curves=curves,
-            contact_points=contacts.points,
-            contact_kinds=contacts.kinds,
-            contact_forces_n=contacts.normal_forces_n,
-        )
-        os.replace(tmp, state_path)
-    return row
-
-
-def _simulate(
-    spec: TrialSpec,
-    limits: WatchdogLimits,
-    inject_nan_at_s: float | None,
-    state_dir: Path | None,
-    recorder: TrialRecorder | None,
-) -> dict[str, Any]:
-    env = make_environment(spec.config, spec.seed)
-    physics, task = env.physics, env.task
+    env = TASKS.get(task).make_environment(config, seed)
+    physics, bench_task = env.physics, env.task
     model, data = physics.model.ptr, physics.data.ptr
+    prefix = None if state_dir is None else Path(state_dir) / trial_id(task, config, seed)
     time_step = env.reset()
-    fil = spec.config.gripper.filament
-    kappa = fil.curvature_per_m(spec.config.gripper.pressure_pa)
-    watchdog = Watchdog(
-        model,
-        data,
-        limits,
-        actuation_energy_j=spec.config.gripper.n_filaments * 0.5 * fil.bending_stiffness_nm2 * kappa**2 * fil.length_m,
-    )
-    schedule = task.schedule
+    for observer in observers:
+        observer.start(env)
+    watchdog = Watchdog(model, data, limits or bench_task.watchdog_limits(), bench_task.actuation_energy_j())
     row: dict[str, Any] = {"outcome": "", "failure_mode": "", "unstable_reason": "", "unstable_time_s": None}
-    taken = set()
+    series: dict[str, list[float]] = {}
+    taken: set[str] = set()
+    complete = False
     try:
-        while not time_step.last():
-            t = physics.time()
-            if inject_nan_at_s is not None and t >= inject_nan_at_s:
-                data.qvel[0] = np.nan
-            time_step = env.step(scripted_action(spec.config, schedule, t))
-            watchdog.check(model, data)
-            phase = schedule.phase(physics.time() + 1e-9)
-            if recorder is not None:
-                recorder.maybe_record(physics.time(), physics, phase, task.pressure_pa)
-            for name, when in (("actuated", "lift"), ("held", "release")):
-                if phase == when and name not in taken:
-                    taken.add(name)
-                    path = None if state_dir is None else state_dir / f"{spec.trial_id}_{name}.npz"
-                    row.update(snapshot(physics, name, path))
-    except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
-        # FatalError: MuJoCo aborted the step, e.g. an exploding state overflowed the constraint arena.
-        reason = exc.reason if isinstance(exc, WatchdogTripped) else f"{type(exc).__name__}:{exc}"
-        row.update(outcome="unstable", unstable_reason=reason, unstable_time_s=physics.time())
-    if row["outcome"] != "unstable":
-        success, mode = task.outcome.classify()
-        row.update(outcome="success" if success else "failure", failure_mode=mode)
-    row.update(
-        lift_height_m=task.outcome.max_rise_m,
-        hold_time_reached_s=task.outcome.hold_reached_s,
-        sim_time_s=physics.time(),
-    )
-    return row
+        try:
+            while not time_step.last():
+                time_step = env.step(bench_task.scripted_action(physics))
+                watchdog.check(model, data)
+                for observer in observers:
+                    observer.step(env)
+                point = bench_task.series_point(physics)
+                if point:
+                    for name, value in {"time_s": physics.time(), **point}.items():
+                        series.setdefault(name, []).append(value)
+                phase = bench_task.phase(physics)
+                for name, when in bench_task.SNAPSHOTS.items():
+                    if phase == when and name not in taken:
+                        taken.add(name)
+                        snap = bench_task.snapshot(physics)
+                        row.update({f"{name}.{k}": v for k, v in snap.metrics.items()})
+                        if prefix is not None:
+                            _save_npz(prefix.with_name(f"{prefix.name}_{name}.npz"), snap.arrays)
+        except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
+            # FatalError: MuJoCo aborted the step, e.g. an exploding state overflowed the constraint arena.
+            row.update(outcome="unstable", unstable_reason=_unstable_reason(exc), unstable_time_s=physics.time())
+        if row["outcome"] != "unstable":
+            outcome = bench_task.outcome
+            if outcome is None:
+                raise OutcomeError(f"task {task} ended at t = {physics.time():.4f} s without deciding its outcome")
+            row.update(outcome=outcome.status, failure_mode=outcome.failure_mode)
+        row.update(bench_task.metrics(physics))
+        row["sim_time_s"] = physics.time()
+        arrays = {name: np.asarray(values) for name, values in series.items()}
+        if arrays and prefix is not None:
+            _save_npz(prefix.with_name(f"{prefix.name}_series.npz"), arrays)
+        complete = True
+    finally:
+        for observer in observers:
+            observer.finish(row, complete)
+    return TrialResult(row, env, watchdog, arrays)
 
 
 def run_trial(
     spec: TrialSpec,
+    *,
     limits: WatchdogLimits | None = None,
     retry_unstable: bool = False,
-    inject_nan_at_s: float | None = None,
     state_dir: Path | None = None,
     record_dir: Path | None = None,
+    observers: Sequence[Observer] = (),
 ) -> dict[str, Any]:
-    """Run one trial and return its results row.
+    """Run one trial and return its results row (identity, outcome, metrics, snapshots, config, versions).
 
-    With `retry_unstable`, an unstable trial is rerun once with half the timestep and the row says so.
-    `inject_nan_at_s` corrupts the state at that time (for testing the watchdog). With `state_dir`, the
-    filament and contact states at the end of actuation and of the hold are saved there as .npz; with
-    `record_dir`, the whole trial is recorded there as `<trial_id>.mcap`.
+    With `retry_unstable`, an unstable trial is rerun once with half the timestep (without observers) and
+    the row says so. With `state_dir`, the snapshots are saved there as .npz; with `record_dir`, the whole
+    trial is recorded there as `<trial_id>.mcap` (`observers.McapObserver`).
     """
     start = time.perf_counter()
-    limits = limits or WatchdogLimits()
-    recorder = None
+    watchers = list(observers)
     if record_dir is not None:
-        recorder = TrialRecorder(
-            record_dir / f"{spec.trial_id}.mcap",
-            metadata={"task": spec.task, "seed": str(spec.seed), "condition": spec.condition},
-        )
-    try:
-        row = _simulate(spec, limits, inject_nan_at_s, state_dir, recorder)
-    finally:
-        if recorder is not None:
-            recorder.close()
+        metadata = {"task": spec.task, "seed": str(spec.seed), "condition": spec.condition}
+        watchers.append(McapObserver(Path(record_dir) / f"{spec.trial_id}.mcap", metadata))
+    row = simulate(spec.task, spec.config, spec.seed, limits=limits, observers=watchers, state_dir=state_dir).row
     retried = False
     if row["outcome"] == "unstable" and retry_unstable:
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
-        halved = dataclasses.replace(spec, config=dataclasses.replace(spec.config, numerics=numerics))
+        halved = dataclasses.replace(spec.config, numerics=numerics)
         first_reason = row["unstable_reason"]
-        row = _simulate(halved, limits, inject_nan_at_s, state_dir, None)
+        row = simulate(spec.task, halved, spec.seed, limits=limits, state_dir=state_dir).row
         row["first_unstable_reason"] = first_reason
         retried = True
     return {

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -11,8 +10,9 @@ import numpy as np
 
 from entangle_bench import effects as fx
 from entangle_bench.config import check_range
+from entangle_bench.geoms import GeomClasses, role_of
 from entangle_bench.gripper import Gripper, GripperParams, add_gripper, filament_positions
-from entangle_bench.presets import Numerics, get_preset
+from entangle_bench.presets import Numerics
 
 
 @dataclass(frozen=True)
@@ -49,14 +49,6 @@ class SceneConfig:
     numerics: Numerics = field(default_factory=Numerics)
 
 
-def with_preset(config: SceneConfig, name: str) -> SceneConfig:
-    """Apply a named numerical preset: its numerics and its segment count per filament."""
-    preset = get_preset(name)
-    filament = dataclasses.replace(config.gripper.filament, n_segments=preset.n_segments)
-    gripper = dataclasses.replace(config.gripper, filament=filament)
-    return dataclasses.replace(config, gripper=gripper, numerics=preset.numerics)
-
-
 @dataclass
 class Scene:
     """A compiled scene with its named parts."""
@@ -65,12 +57,8 @@ class Scene:
     model: mujoco.MjModel
     gripper: Gripper
     object_info: Any
-    filament_of_geom: np.ndarray
-    """(ngeom,) filament index of each geom, -1 for non-filament geoms."""
-    is_object_geom: np.ndarray
-    """(ngeom,) True for the object's geoms."""
-    is_ground_geom: np.ndarray
-    """(ngeom,) True for the ground plane."""
+    geoms: GeomClasses
+    """Filament, object and ground flags of every geom (`entangle_bench.geoms`)."""
 
     @property
     def object_body(self) -> int:
@@ -109,11 +97,9 @@ def build_scene(
         info = objects.add_object(
             spec, config.object_name, config.object_params, pos=object_pos, quat=object_quat
         )
-    group: dict[str, int] = {"ground": fx.GROUND}
-    for handle in gripper.filaments:
-        group.update({g: fx.FILAMENT for g in handle.geom_names})
-    object_geoms = [g.name for g in spec.geoms if g.name.startswith("object")]
-    group.update({g: fx.OBJECT for g in object_geoms})
+    collision_group = {"ground": fx.GROUND, "object": fx.OBJECT, "filament": fx.FILAMENT}
+    roles = {geom.name: role_of(geom.name)[0] for geom in spec.geoms}
+    group = {name: collision_group[role] for name, role in roles.items() if role in collision_group}
     # Material first: explicit contact pairs made by apply_effects copy it from the geoms.
     for geom in spec.geoms:
         geom.friction = (contact.friction, contact.torsional_friction_m, contact.rolling_friction_m)
@@ -129,16 +115,7 @@ def build_scene(
     )
     model = spec.compile()
     gripper.bind(model)
-    filament_of_geom = np.full(model.ngeom, -1, dtype=int)
-    for handle in gripper.filaments:
-        for name in handle.geom_names:
-            filament_of_geom[model.geom(name).id] = handle.index
-    is_object_geom = np.zeros(model.ngeom, dtype=bool)
-    for name in object_geoms:
-        is_object_geom[model.geom(name).id] = True
-    is_ground_geom = np.zeros(model.ngeom, dtype=bool)
-    is_ground_geom[model.geom("ground").id] = True
-    return Scene(config, model, gripper, info, filament_of_geom, is_object_geom, is_ground_geom)
+    return Scene(config, model, gripper, info, GeomClasses.from_model(model))
 
 
 def kinetic_energy(model: mujoco.MjModel, data: mujoco.MjData) -> float:

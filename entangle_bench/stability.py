@@ -1,31 +1,24 @@
-"""Numerical stability: a watchdog probe of filaments curling in air, and the measured envelope.
+"""Numerical stability: the measured envelope of stable numerics, and the checks against it.
 
-`probe` runs a gripper (no object) hanging from a fixed hub: random joint perturbations, a pressure
-ramp to the configured pressure, a hold, all under the runtime watchdog with an energy bound scaled
-to the gripper's own energy. `scripts/stability_map.py` sweeps it over Young's modulus x timestep x
-segments for every integrator with a small array that touches itself (MAP_GRIPPER: three filaments
-8.7 mm apart, every contact effect on, since filament contact halves the stable timestep of stiff
-filaments compared with a lone rod); the boundary is recorded in ENVELOPE below. Coils tighter
-than the reference need a further limit, dt c kappa^2 <= COIL_TIMESTEP_NUMBER, from the script's
-coil sweep. `envelope_warnings` compares a resolved configuration against both before a run, and
-`stable_timestep_s` gives the largest timestep they allow.
+The stability probe (task `probe/curl_in_air`, `suite.probe`) runs a gripper (no object) hanging from a
+fixed hub: random joint perturbations, a pressure ramp to the configured pressure, a hold, all under the
+runner's watchdog with an energy bound scaled to the gripper's own energy. `studies.stability_map` sweeps it
+over Young's modulus x timestep x segments for every integrator with a small array that touches itself
+(MAP_GRIPPER: three filaments 8.7 mm apart, every contact effect on, since filament contact halves the stable
+timestep of stiff filaments compared with a lone rod); the boundary is recorded in ENVELOPE below, and a test
+recomputes it from the stored map (results/stability/stability_map.csv). Coils tighter than the reference
+need a further limit, dt c kappa^2 <= COIL_TIMESTEP_NUMBER, from the study's coil sweep. `envelope_warnings`
+compares a resolved configuration against both before a run, and `stable_timestep_s` gives the largest
+timestep they allow.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-import time
-from dataclasses import dataclass
-
-import mujoco
-import numpy as np
 
 from entangle_bench.filament import REFERENCE_PRESSURE_PA, FilamentParams
-from entangle_bench.gripper import GripperParams, bending_angles
+from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import PRESETS, Numerics
-from entangle_bench.scene import SceneConfig, build_scene
-from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
 #: The filament the stability map was measured with (the reference design).
 REFERENCE_FILAMENT = FilamentParams()
@@ -33,86 +26,6 @@ REFERENCE_FILAMENT = FilamentParams()
 #: Layout of the stability map: three filaments on a 10 mm circle (8.7 mm apart), close enough to
 #: coil into each other, with every contact effect of the default Effects on.
 MAP_GRIPPER = GripperParams(filament=REFERENCE_FILAMENT, ring_diameters_m=(0.01,), ring_counts=(3,))
-
-
-@dataclass(frozen=True)
-class ProbeResult:
-    """Outcome of one stability probe (SI units)."""
-
-    stable: bool
-    reason: str
-    """Why the watchdog tripped ('' if stable)."""
-    time_s: float
-    """Simulated time reached (the trip time if unstable)."""
-    stats: WatchdogStats
-    wall_time_s: float
-
-
-def actuation_energy_j(config: SceneConfig) -> float:
-    """Bending energy 0.5 EI kappa^2 L of all filaments at full pressure, J (watchdog's W_act)."""
-    fil = config.gripper.filament
-    kappa = fil.curvature_per_m(config.gripper.pressure_pa)
-    return config.gripper.n_filaments * 0.5 * fil.bending_stiffness_nm2 * kappa**2 * fil.length_m
-
-
-def probe_limits(config: SceneConfig) -> WatchdogLimits:
-    """Watchdog bounds for a probe: 10 m/s, energy slack 10 % of actuation plus lifting energy, J.
-
-    The trial default slack, 0.05 J, would hide the blow-up of a few light filaments.
-    """
-    fil = config.gripper.filament
-    lift = config.gripper.n_filaments * fil.mass_kg * 9.81 * fil.length_m
-    return WatchdogLimits(
-        max_speed_m_s=10.0, energy_slack_j=0.1 * (actuation_energy_j(config) + lift)
-    )
-
-
-def probe(
-    config: SceneConfig,
-    duration_s: float = 1.0,
-    ramp_time_s: float = 0.3,
-    seed: int = 0,
-    perturbation_rad: float = 0.05,
-    check_every_s: float = 0.01,
-    limits: WatchdogLimits | None = None,
-) -> ProbeResult:
-    """Run the gripper of `config` (no object) hung at z = 0.5 m: ramp, hold, watchdog; s, rad."""
-    config = dataclasses.replace(config, object_name=None, object_params=None)
-    scene = build_scene(config, hub_pos=(0.0, 0.0, 0.5))
-    model = scene.model
-    data = mujoco.MjData(model)
-    rng = np.random.default_rng(seed)
-    angles = bending_angles(config.gripper, rng)
-    scene.gripper.set_pressure(model, 0.0, angles)
-    quat = np.empty(4)
-    for row in scene.gripper.spring_addresses.reshape(-1, 4):
-        vec = rng.normal(0.0, perturbation_rad, size=3)
-        angle = float(np.linalg.norm(vec))
-        mujoco.mju_axisAngle2Quat(quat, vec / (angle + 1e-300), angle)
-        data.qpos[row] = quat  # `row` is an index array: data.qpos[row] would be a copy
-    mujoco.mj_forward(model, data)
-    watchdog = Watchdog(model, data, limits or probe_limits(config), actuation_energy_j(config))
-    steps = max(1, round(check_every_s / model.opt.timestep))
-    pressure = config.gripper.pressure_pa
-    start = time.perf_counter()
-    reason = ""
-    try:
-        while data.time < duration_s - 1e-9:
-            fraction = min(1.0, data.time / ramp_time_s) if ramp_time_s > 0 else 1.0
-            scene.gripper.set_pressure(model, fraction * pressure, angles)
-            mujoco.mj_step(model, data, nstep=steps)
-            watchdog.check(model, data)
-    except WatchdogTripped as exc:
-        reason = exc.reason
-    except mujoco.FatalError as exc:  # e.g. an exploding state overflowing the constraint arena
-        reason = "mujoco_error:" + str(exc).splitlines()[0]
-    return ProbeResult(
-        stable=not reason,
-        reason=reason,
-        time_s=float(data.time),
-        stats=watchdog.stats,
-        wall_time_s=time.perf_counter() - start,
-    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -124,7 +37,7 @@ MAP_MODULI_PA = (0.05e6, 0.2e6, 1e6, 3e6, 10e6, 30e6)
 MAP_TIMESTEPS_S = (0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3)
 
 #: Largest timestep (s) at which the probe was stable, and every smaller one too (0: none down to
-#: 0.25 ms), measured by `scripts/stability_map.py` (results/stability/stability_map.csv;
+#: 0.25 ms), measured by `studies.stability_map` (results/stability/stability_map.csv;
 #: MAP_GRIPPER, 0.6 s probes, each integrator with `base_numerics`): integrator -> segments -> one
 #: value per modulus of MAP_MODULI_PA. 8 ms is the largest timestep measured, not a limit found. The
 #: map holds the reference filament (L = 300 mm), so a configuration is looked up by its equivalent
@@ -284,10 +197,10 @@ MAX_TURN_PER_SEGMENT_RAD = 2.0
 
 #: Coil limit: dt * c * kappa^2 at most this (c = sqrt(EI / (rho A))). A tight coil curls, and its
 #: turns collide, at the bending-wave rate of its own curvature, which the rod map (reference 12.5
-#: mm coil) does not cover. Measured by `scripts/stability_map.py` (coil sweep,
+#: mm coil) does not cover. Measured by `studies.stability_map` (coil sweep,
 #: results/stability/coil_map.csv: one filament with and without contact, coil radii 2.1-12.5 mm, E
 #: 1-10 MPa, euler and implicitfast); the smallest dt c kappa^2 at which a limit was found is
-#: printed by the script and quoted in the README (0.6 lies below all of them).
+#: printed by `scripts/stability_map.py` and quoted in the README (0.6 lies below all of them).
 COIL_TIMESTEP_NUMBER = 0.6
 MAP_COIL_RADII_M = (0.0125, 0.008, 0.0058, 0.004, 0.0028, 0.0021)
 MAP_COIL_MODULI_PA = (1e6, 3e6, 10e6)

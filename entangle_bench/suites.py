@@ -4,7 +4,7 @@ A suite file holds:
 
     description = "what it measures"
     trials = 10            # seeded trials per condition (seeds seed, seed+1, ...)
-    preset = "balanced"    # numerical preset (optional)
+    preset = "balanced"    # numerical preset (optional; default presets.DEFAULT_PRESET)
     seed = 0               # first seed (optional)
 
     [[conditions]]         # one or more
@@ -15,19 +15,24 @@ A suite file holds:
     [sweep]                # optional: every condition is crossed with the product of these axes
     offset_m = [0.0, 0.01, 0.02]
 
-Errors name the file, the key and the problem.
+Errors name the file, the key and the problem. Suite files are found in `tasks/` and looked up through the
+`SUITES` registry; `task_suite` makes the same kind of `Suite` for one task from command-line settings, and
+both build their trial specs in `_expand`, the one place TrialSpecs are made.
 """
 
 from __future__ import annotations
 
 import itertools
 import tomllib
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from entangle_bench.config import replace_path
-from entangle_bench.errors import EntangleBenchError, FileFormatError, UnknownNameError
-from entangle_bench.presets import PRESETS
+from entangle_bench.errors import EntangleBenchError, FileFormatError, ParameterError, UnknownNameError
+from entangle_bench.presets import DEFAULT_PRESET, PRESETS
+from entangle_bench.registry import Registry
 from entangle_bench.runner import TrialSpec
 from entangle_bench.suite import TASKS, resolve_config
 
@@ -35,21 +40,29 @@ SUITE_DIR = Path(__file__).resolve().parent.parent / "tasks"
 TOP_KEYS = {"description", "trials", "preset", "seed", "conditions", "sweep"}
 CONDITION_KEYS = {"task", "label", "set"}
 
+#: Suite files of `tasks/` by name (the file stem).
+SUITES: Registry[Path] = Registry("suite")
+for _path in sorted(SUITE_DIR.glob("*.toml")):
+    SUITES.add(_path.stem, _path, description="")
 
-def suite_names(folder: Path = SUITE_DIR) -> list[str]:
-    """Names of the suite files in `folder`."""
-    return sorted(p.stem for p in folder.glob("*.toml"))
+
+@dataclass(frozen=True)
+class Suite:
+    """A named set of trials: the conditions' trial specs and the swept parameter names."""
+
+    name: str
+    description: str
+    preset: str
+    sweep: tuple[str, ...]
+    specs: tuple[TrialSpec, ...]
 
 
-def suite_path(name: str, folder: Path = SUITE_DIR) -> Path:
-    """Path of a suite by name or path; unknown names list the known ones."""
+def suite_path(name: str) -> Path:
+    """Path of a suite given by registered name or by a path to a .toml file; unknown names list the known ones."""
     path = Path(name)
     if path.suffix == ".toml" and path.exists():
         return path
-    candidate = folder / f"{name}.toml"
-    if candidate.exists():
-        return candidate
-    raise UnknownNameError("suite", name, suite_names(folder))
+    return SUITES.get(name)
 
 
 def _fail(path: Path, key: str, problem: str) -> FileFormatError:
@@ -61,9 +74,39 @@ def _value(value: Any) -> Any:
     return tuple(value) if isinstance(value, list) else value
 
 
-def load_suite(name: str, trials: int | None = None, folder: Path = SUITE_DIR) -> tuple[dict, list[TrialSpec]]:
-    """Read a suite; return its header and the trial specs (`trials` overrides the file's count)."""
-    path = suite_path(name, folder)
+def _parameter_error(key: str, problem: str) -> ParameterError:
+    return ParameterError(f"{key}: {problem}")
+
+
+def _expand(
+    task: str,
+    label: str,
+    config: Any,
+    sweep: dict[str, Sequence[Any]],
+    trials: int,
+    seed: int,
+    preset: str,
+    fail: Callable[[str, str], EntangleBenchError] = _parameter_error,
+) -> list[TrialSpec]:
+    """Trial specs of one condition: `config` crossed with the product of the `sweep` axes, seeds seed, seed + 1..."""
+    specs = []
+    for combo in itertools.product(*sweep.values()) if sweep else [()]:
+        swept = config
+        params = tuple(zip(sweep.keys(), combo))
+        for key, value in params:
+            try:
+                swept = replace_path(swept, key, _value(value))
+            except (EntangleBenchError, TypeError) as exc:
+                raise fail(f"sweep.{key}", str(exc)) from None
+        name = " ".join([label] + [f"{k}={v}" for k, v in params])
+        row_params = tuple((f"param.{k}", v) for k, v in params)
+        specs += [TrialSpec(task, name, swept, seed + k, preset, row_params) for k in range(trials)]
+    return specs
+
+
+def load_suite(name: str, trials: int | None = None) -> Suite:
+    """Read a suite file (registered name or path) into its trial specs; `trials` overrides the file's count."""
+    path = suite_path(name)
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
@@ -74,9 +117,9 @@ def load_suite(name: str, trials: int | None = None, folder: Path = SUITE_DIR) -
     count = data.get("trials", 1) if trials is None else trials
     if not isinstance(count, int) or count < 1:
         raise _fail(path, "trials", f"must be a positive integer, got {count!r}")
-    preset = data.get("preset", "balanced")
+    preset = data.get("preset", DEFAULT_PRESET)
     if preset not in PRESETS:
-        raise _fail(path, "preset", f"unknown preset {preset!r}; known: {sorted(PRESETS)}")
+        raise _fail(path, "preset", f"unknown preset {preset!r}; known: {PRESETS.names()}")
     seed0 = data.get("seed", 0)
     if not isinstance(seed0, int) or seed0 < 0:
         raise _fail(path, "seed", f"must be a non-negative integer, got {seed0!r}")
@@ -95,7 +138,7 @@ def load_suite(name: str, trials: int | None = None, folder: Path = SUITE_DIR) -
         if extra:
             raise _fail(path, f"{where}.{sorted(extra)[0]}", f"unknown key; allowed: {sorted(CONDITION_KEYS)}")
         try:
-            task = TASKS.get(cond["task"]).full_name
+            task = TASKS.entry(cond["task"]).value.name
         except UnknownNameError as exc:
             raise _fail(path, f"{where}.task", str(exc)) from None
         settings = cond.get("set", {})
@@ -107,19 +150,29 @@ def load_suite(name: str, trials: int | None = None, folder: Path = SUITE_DIR) -
                 base = replace_path(base, key, _value(value))
             except (EntangleBenchError, TypeError) as exc:
                 raise _fail(path, f"{where}.set.{key}", str(exc)) from None
-        for combo in itertools.product(*sweep.values()) if sweep else [()]:
-            config = base
-            params = tuple(zip(sweep.keys(), combo))
-            for key, value in params:
-                try:
-                    config = replace_path(config, key, _value(value))
-                except (EntangleBenchError, TypeError) as exc:
-                    raise _fail(path, f"sweep.{key}", str(exc)) from None
-            label = cond.get("label", task.split("/")[-1])
-            label = " ".join([label] + [f"{k}={v}" for k, v in params])
-            for k in range(count):
-                specs.append(
-                    TrialSpec(task, label, config, seed0 + k, preset, tuple((f"param.{a}", b) for a, b in params))
-                )
-    header = {"name": path.stem, "description": data.get("description", ""), "sweep": list(sweep)}
-    return header, specs
+        label = cond.get("label", task.split("/")[-1])
+        specs += _expand(task, label, base, sweep, count, seed0, preset, lambda k, p: _fail(path, k, p))
+    return Suite(path.stem, data.get("description", ""), preset, tuple(sweep), tuple(specs))
+
+
+def task_suite(
+    task: str,
+    *,
+    preset: str | None = None,
+    overrides: Iterable[str] = (),
+    offsets: Sequence[float] | None = None,
+    trials: int = 1,
+    seed: int = 0,
+) -> Suite:
+    """A suite of one task from command-line settings: preset, `a.b=value` overrides, offsets (m), trials, seed.
+
+    Tasks with a centering offset sweep `offset_m` (over `offsets`, or the resolved config's own offset).
+    """
+    name = TASKS.entry(task).value.name
+    preset = preset or DEFAULT_PRESET
+    base = resolve_config(name, preset, overrides)
+    if offsets is None and hasattr(base, "offset_m"):
+        offsets = [base.offset_m]
+    sweep = {} if offsets is None else {"offset_m": [float(x) for x in offsets]}
+    specs = _expand(name, name.split("/")[-1], base, sweep, trials, seed, preset)
+    return Suite(task.replace("/", "_"), "", preset, tuple(sweep), tuple(specs))

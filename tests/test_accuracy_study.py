@@ -1,39 +1,22 @@
-"""The accuracy-time study script in its CI smoke mode, and its Pareto helper."""
+"""The accuracy-time study (`entangle_bench.studies.accuracy_time`) in its CI smoke mode, and its Pareto helper."""
 
 from __future__ import annotations
-
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "accuracy_time_study.py"
-
-
-def _load():
-    spec = importlib.util.spec_from_file_location("accuracy_time_study", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up here
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        del sys.modules[spec.name]
-    return module
+from entangle_bench.studies import accuracy_time
 
 
 def test_pareto_mask():
-    study = _load()
     cost = np.array([1.0, 2.0, 3.0, 2.5, 1.0])
     error = np.array([5.0, 2.0, 1.0, 3.0, 6.0])
     # (2.5, 3) is dominated by (2, 2); (1, 6) by (1, 5).
-    np.testing.assert_array_equal(study.pareto_mask(cost, error), [True, True, True, False, False])
+    np.testing.assert_array_equal(accuracy_time.pareto_mask(cost, error), [True, True, True, False, False])
 
 
-def test_smoke_mode_writes_tables_and_plot(tmp_path, capsys):
-    study = _load()
-    assert study.main(["--smoke", "--out", str(tmp_path)]) == 0
+def test_smoke_mode_writes_tables_and_plot(tmp_path):
+    report = accuracy_time.run_study(tmp_path, smoke=True)
     for name in ("rods.csv", "trial.csv", "pareto.png", "report.md"):
         assert (tmp_path / name).stat().st_size > 0
     rods = pd.read_csv(tmp_path / "rods.csv")
@@ -45,4 +28,7 @@ def test_smoke_mode_writes_tables_and_plot(tmp_path, capsys):
     assert flex["note"].str.contains("straight reference").all()
     trial = pd.read_csv(tmp_path / "trial.csv")
     assert len(trial) == 2 and (trial["cpu_per_sim_s"] > 0).all()
-    assert "Rod statics" in capsys.readouterr().out
+    # Trials run through the runner: a classified outcome and the held snapshot's metrics.
+    assert set(trial["outcome"]) <= {"success", "failure"}
+    assert trial["acn"].notna().all() and (trial["acn"] > 0).all()
+    assert "Rod statics" in report and report == (tmp_path / "report.md").read_text().rstrip("\n")

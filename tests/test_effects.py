@@ -11,6 +11,7 @@ import pytest
 
 from entangle_bench import effects as fx
 from entangle_bench.filament import FilamentParams
+from entangle_bench.geoms import GeomClasses
 from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import get_preset
 from entangle_bench.rods.case import load_case
@@ -62,15 +63,15 @@ def test_collision_pairs_are_exactly_those_the_engine_tests_and_the_effects_allo
     pairs = fx.collision_pairs(model)
     assert set(pairs) == engine_pairs(model)
     expected = {
-        "filament_self": self_
+        "filament-self": self_
         * N_FIL
         * (N_SEG - 1)
         * (N_SEG - 2)
         // 2,  # non-adjacent segment pairs
-        "filament_filament": ff * math.comb(N_FIL, 2) * N_SEG**2,
-        "filament_object": fo * N_FIL * N_SEG * TREE_GEOMS,
-        "filament_ground": ground * N_FIL * N_SEG,
-        "object_ground": ground * TREE_GEOMS,
+        "filament-filament": ff * math.comb(N_FIL, 2) * N_SEG**2,
+        "filament-object": fo * N_FIL * N_SEG * TREE_GEOMS,
+        "filament-ground": ground * N_FIL * N_SEG,
+        "object-ground": ground * TREE_GEOMS,
         "other": 0,
     }
     assert fx.pair_kinds(model, pairs) == expected
@@ -91,11 +92,11 @@ def test_filaments_that_can_never_touch_are_excluded():
     model = small_scene(fx.Effects(), gripper, obj=None).model
     pairs = fx.collision_pairs(model)
     assert set(pairs) == engine_pairs(model)
-    roles, index = fx.geom_roles(model)
+    index = GeomClasses.from_model(model).filament
     cross = {
         tuple(sorted((index[a], index[b])))
         for a, b in pairs
-        if roles[a] == roles[b] == "filament" and index[a] != index[b]
+        if min(index[a], index[b]) >= 0 and index[a] != index[b]
     }
     assert cross == {(0, 1)}
     assert model.nexclude == 2 * 4 * 4

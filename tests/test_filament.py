@@ -10,7 +10,6 @@ from entangle_bench import effects as fx
 from entangle_bench.errors import ParameterError
 from entangle_bench.filament import REFERENCE_COIL_RADIUS_M, FilamentParams
 from entangle_bench.scene import step_until_rest
-from tests.helpers import STATICS, single_filament_scene
 
 
 def fit_circle_xz(points: np.ndarray) -> float:
@@ -39,7 +38,7 @@ def test_default_calibration_gives_stated_coil_radius():
     assert stiffer.curvature_per_m(172e3) == pytest.approx(0.5 / REFERENCE_COIL_RADIUS_M)
 
 
-def test_actuated_coil_radius_matches_curvature():
+def test_actuated_coil_radius_matches_curvature(single_filament_scene):
     """Zero gravity, no contact: the coil's fitted radius is 1/kappa within 2 % (40 segments)."""
     scene = single_filament_scene(n_segments=40)
     kappa = scene.config.gripper.filament.curvature_per_m(172e3)
@@ -48,7 +47,7 @@ def test_actuated_coil_radius_matches_curvature():
     assert fit_circle_xz(line) * kappa == pytest.approx(1.0, abs=0.02)
 
 
-def test_stiff_cantilever_matches_small_deflection_formula():
+def test_stiff_cantilever_matches_small_deflection_formula(single_filament_scene):
     """Sideways gravity on a stiff clamped rod: tip drop rho A g L^4 / (8 EI) within 5 %."""
     scene = single_filament_scene(effects=fx.NO_CONTACT, n_segments=20, youngs_modulus_pa=2e10)
     params = scene.config.gripper.filament
@@ -60,7 +59,7 @@ def test_stiff_cantilever_matches_small_deflection_formula():
     assert -line[-1, 0] == pytest.approx(expected, rel=0.05)
 
 
-def test_doubling_segments_changes_equilibrium_little():
+def test_doubling_segments_changes_equilibrium_little(single_filament_scene):
     """Actuated filament hanging under gravity: 16 -> 32 segments moves the centerline < 2 % of L."""
     lines = []
     for n in (16, 32):
@@ -72,13 +71,9 @@ def test_doubling_segments_changes_equilibrium_little():
     assert err < 0.02
 
 
-def test_energy_does_not_grow_with_damping():
+def test_energy_does_not_grow_with_damping(single_filament_scene):
     """Released from a bent pose with constant rest shape, mechanical energy never rises."""
-    scene = single_filament_scene(
-        effects=fx.NO_CONTACT,
-        numerics=STATICS,
-        n_segments=16,
-    )
+    scene = single_filament_scene(effects=fx.NO_CONTACT, n_segments=16)
     model, data = scene.model, mujoco.MjData(scene.model)
     model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
     scene.gripper.set_pressure(model, 172e3, np.array([0.0]))

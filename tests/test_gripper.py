@@ -1,6 +1,5 @@
 """Gripper layout, validation and the default array hanging in air."""
 
-import dataclasses
 import math
 
 import mujoco
@@ -8,8 +7,10 @@ import numpy as np
 import pytest
 
 from entangle_bench.errors import ParameterError
+from entangle_bench.filament import FilamentParams
 from entangle_bench.gripper import GripperParams, bending_angles, filament_positions
-from entangle_bench.scene import SceneConfig, build_scene, with_preset
+from entangle_bench.presets import DEFAULT_PRESET, PRESETS, apply_preset
+from entangle_bench.scene import SceneConfig, build_scene
 
 
 def test_reference_layout():
@@ -56,7 +57,7 @@ def test_random_bending_planes_are_seeded():
 @pytest.mark.parametrize("preset", ["fast", "balanced"])
 def test_default_array_actuates_in_air_without_warnings(preset):
     """12 filaments, 3 s hanging in air with a pressure ramp: finite state, no MuJoCo warnings, curled."""
-    scene = build_scene(with_preset(SceneConfig(), preset))
+    scene = build_scene(apply_preset(SceneConfig(), preset))
     model, data = scene.model, mujoco.MjData(scene.model)
     angles = bending_angles(scene.config.gripper, np.random.default_rng(0))
     mujoco.mj_kinematics(model, data)
@@ -72,9 +73,16 @@ def test_default_array_actuates_in_air_without_warnings(preset):
     assert np.all(span < 0.93 * np.linalg.norm(straight[:, -1] - straight[:, 0], axis=1))
 
 
-def test_preset_sets_segment_count():
-    config = with_preset(SceneConfig(), "fast")
-    assert config.gripper.filament.n_segments == 12
+def test_preset_sets_segment_count_and_numerics_only():
+    base = SceneConfig(gripper=GripperParams(pressure_pa=1e5))
+    config = apply_preset(base, "fast")
+    assert config.gripper.filament.n_segments == 12 and config.numerics == PRESETS["fast"].numerics
+    assert config.gripper.pressure_pa == 1e5 and config.effects == base.effects
     scene = build_scene(config)
     assert scene.model.nbody == 1 + 1 + 12 * 12 + 0
-    assert dataclasses.replace(config.gripper.filament, n_segments=16).n_segments == 16
+    assert apply_preset(base) == apply_preset(base, DEFAULT_PRESET)
+
+
+def test_filament_default_segments_are_the_default_presets():
+    assert FilamentParams().n_segments == PRESETS[DEFAULT_PRESET].n_segments
+    assert apply_preset(SceneConfig()) == SceneConfig()  # the defaults are already the default preset

@@ -1,12 +1,7 @@
-"""Runner: resumable sweeps, atomic logs, Wilson intervals, suite files, recordings."""
+"""Runner: resumable sweeps, atomic logs, Wilson intervals, suite files, observers, recordings."""
 
 import json
-import os
-import signal
-import subprocess
-import sys
 import textwrap
-import time
 
 import numpy as np
 import pytest
@@ -17,9 +12,11 @@ from entangle_bench.errors import FileFormatError, UnknownNameError
 from entangle_bench.metrics.stats import success_table, wilson_interval
 from entangle_bench.recording import read_recording
 from entangle_bench.results import TrialLog
-from entangle_bench.runner import SerialExecutor, run_trial, run_trials
-from entangle_bench.suites import load_suite
-from tests.suite.test_top_drape import SHORT, short_spec
+from entangle_bench.runner import SerialExecutor, run_trial, run_trials, simulate
+from entangle_bench.suite import SHORT_SEQUENCE
+from entangle_bench.suites import SUITES, load_suite, task_suite
+
+SHORT = SHORT_SEQUENCE
 
 TINY_SUITE = textwrap.dedent(
     """
@@ -92,29 +89,54 @@ def test_suite_errors_name_file_key_and_problem(tmp_path):
 
 
 def test_shipped_suites_load():
-    for name in ("default", "objects", "offsets", "spacing", "branch_length", "tree_mass"):
-        header, specs = load_suite(name, trials=1)
-        assert specs and len({s.trial_id for s in specs}) == len(specs), name
+    assert SUITES.names() == ["branch_length", "default", "objects", "offsets", "spacing", "tree_mass"]
+    for name in SUITES.names():
+        suite = load_suite(name, trials=1)
+        assert suite.specs and len({s.trial_id for s in suite.specs}) == len(suite.specs), name
+        assert all(s.preset == suite.preset for s in suite.specs)
+
+
+def test_suite_without_preset_uses_the_default_preset(tmp_path):
+    from entangle_bench.presets import DEFAULT_PRESET
+
+    path = tmp_path / "plain.toml"
+    path.write_text('[[conditions]]\ntask = "sphere"\n')
+    suite = load_suite(str(path))
+    assert suite.preset == DEFAULT_PRESET and suite.specs[0].preset == DEFAULT_PRESET
+    assert suite.specs[0].trial_id == task_suite("sphere").specs[0].trial_id  # one way to make a spec
+
+
+class KilledAfter:
+    """Executor that runs `n` trials, then stops the sweep as a kill between two trials would."""
+
+    def __init__(self, n):
+        self.n = n
+
+    def map_unordered(self, fn, items):
+        for item in items[: self.n]:
+            yield fn(item)
+        raise KeyboardInterrupt
 
 
 def test_killed_sweep_resumes_with_every_trial_exactly_once(tmp_path):
+    """Two trials logged, a third torn mid-write by the kill; the rerun adds the other four, once each."""
     suite = tmp_path / "tiny.toml"
     suite.write_text(TINY_SUITE)
     out = tmp_path / "out"
-    log = out / "trials.jsonl"
-    cmd = [sys.executable, "-m", "entangle_bench.cli", "run", str(suite), "--out", str(out),
-           "--workers", "1", "--no-progress"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.time() + 120
-    while time.time() < deadline and not (log.exists() and log.read_text().count("\n") >= 2):
-        time.sleep(0.05)
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait()
-    partial = log.read_text().count("\n")
-    assert 2 <= partial < 6, "the kill should land mid-sweep"
-    assert subprocess.run(cmd, capture_output=True).returncode == 0
-    ids = [json.loads(line)["trial_id"] for line in log.read_text().splitlines()]
-    assert len(ids) == 6 and len(set(ids)) == 6
+    log = TrialLog(out / "trials.jsonl")
+    specs = list(load_suite(str(suite)).specs)
+    with pytest.raises(KeyboardInterrupt):
+        run_trials(specs, log, KilledAfter(2), progress=False)
+    first = log.path.read_text().splitlines()
+    assert len(first) == 2
+    with open(log.path, "a") as handle:
+        handle.write(json.dumps({"trial_id": specs[5].trial_id, "outcome": "fail"})[:25])  # the torn write
+    argv = ["run", str(suite), "--out", str(out), "--workers", "1", "--no-progress"]
+    assert main(argv) == 0
+    lines = log.path.read_text().splitlines()
+    ids = [json.loads(line)["trial_id"] for line in lines]
+    assert sorted(ids) == sorted(s.trial_id for s in specs)
+    assert lines[:2] == first  # finished trials were not rerun
     assert (out / "summary.csv").exists() and (out / "success_vs_offset.png").exists()
 
 
@@ -127,14 +149,14 @@ def test_cli_run_task_in_process(tmp_path, capsys):
     assert main(["run", "no_such_thing", "--out", str(tmp_path)]) == 2
 
 
-def test_rerun_skips_finished_trials(tmp_path):
+def test_rerun_skips_finished_trials(tmp_path, short_spec):
     specs = [short_spec("sphere", seed) for seed in (0, 1)]
     log = TrialLog(tmp_path / "trials.jsonl")
     assert len(run_trials(specs, log, SerialExecutor(), progress=False)) == 2
     assert run_trials(specs, log, SerialExecutor(), progress=False) == []
 
 
-def test_recording_round_trip(tmp_path):
+def test_recording_round_trip(tmp_path, short_spec):
     spec = short_spec("sphere")
     row = run_trial(spec, record_dir=tmp_path)
     states = list(read_recording(tmp_path / f"{row['trial_id']}.mcap"))
@@ -142,3 +164,38 @@ def test_recording_round_trip(tmp_path):
     assert times == sorted(times) and times[-1] == pytest.approx(row["sim_time_s"], abs=0.06)
     assert states[0]["centerlines_m"].shape[0] == spec.config.gripper.n_filaments
     assert {s["phase"] for s in states} >= {"approach", "hold"}
+
+
+class Counter:
+    """Test observer counting the calls the runner makes."""
+
+    def __init__(self):
+        self.starts, self.steps, self.finished = 0, 0, []
+
+    def start(self, env):
+        self.starts += 1
+        assert self.steps == 0 and env.physics.time() == 0.0
+
+    def step(self, env):
+        self.steps += 1
+
+    def finish(self, row, complete):
+        self.finished.append((row["outcome"], complete))
+
+
+def test_observers_see_every_control_step_and_the_final_row(short_spec):
+    spec = short_spec("sphere")
+    counter = Counter()
+    result = simulate(spec.task, spec.config, spec.seed, observers=[counter])
+    steps = round(result.row["sim_time_s"] / spec.config.control_timestep_s)
+    assert counter.starts == 1 and counter.steps == steps
+    assert counter.finished == [(result.row["outcome"], True)]
+
+
+def test_unstable_trial_calls_finish_with_the_unstable_row(short_spec, nan_at):
+    spec = short_spec("sphere")
+    counter = Counter()
+    row = run_trial(spec, observers=[nan_at(0.2), counter])
+    assert row["outcome"] == "unstable"
+    assert counter.finished == [("unstable", True)]
+    assert counter.steps == round(row["unstable_time_s"] / spec.config.control_timestep_s) - 1

@@ -172,8 +172,8 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so():
     """E = 10 MPa, 16 segments at 6 ms: outside the envelope and unstable; at 3 ms, stable."""
     from entangle_bench.runner import TrialSpec, run_trial
     from entangle_bench.stability import envelope_warnings
+    from entangle_bench.suite import SHORT_SEQUENCE as SHORT
     from entangle_bench.suite import resolve_config
-    from tests.suite.test_top_drape import SHORT
 
     stiff = [
         "gripper.filament.youngs_modulus_pa=1e7",

@@ -31,7 +31,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Compile the task's scene and print what it contains."""
-    task = TASKS.get(args.task).full_name
+    task = TASKS.get(args.task).name
     config = resolve_config(task, args.preset, args.overrides)
     scene = build_scene(config.scene_config())
     model = scene.model

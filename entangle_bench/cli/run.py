@@ -1,4 +1,4 @@
-"""`entangle-bench run SUITE|TASK`: seeded top-drape trials, resumable, with a summary table and plot."""
+"""`entangle-bench run SUITE|TASK`: seeded trials, resumable, with a summary table and plot."""
 
 from __future__ import annotations
 
@@ -11,11 +11,10 @@ from entangle_bench import suites
 from entangle_bench.errors import UnknownNameError
 from entangle_bench.metrics.stats import success_table
 from entangle_bench.plots import plot_success_vs
-from entangle_bench.presets import DEFAULT_PRESET, PRESETS
+from entangle_bench.presets import PRESETS
 from entangle_bench.results import TrialLog, atomic_write_csv
-from entangle_bench.runner import TrialSpec, make_executor, run_trials
+from entangle_bench.runner import make_executor, run_trials
 from entangle_bench.stability import envelope_warnings
-from entangle_bench.suite import TASKS, resolve_config
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -37,38 +36,31 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
-def task_specs(args: argparse.Namespace) -> list[TrialSpec]:
-    """Specs for a single task over the requested offsets."""
-    task = TASKS.get(args.target).full_name
-    offsets = [None] if args.offsets is None else [float(x) for x in args.offsets.split(",")]
-    preset = args.preset or DEFAULT_PRESET
-    specs = []
-    for offset in offsets:
-        config = resolve_config(task, preset, args.overrides, offset)
-        label = f"{task.split('/')[-1]} offset_m={config.offset_m}"
-        for k in range(args.trials or 1):
-            specs.append(TrialSpec(task, label, config, args.seed + k, preset,
-                                   (("param.offset_m", config.offset_m),)))
-    return specs
-
-
 def run(args: argparse.Namespace) -> int:
     """Run, append rows, print and save the summary."""
     try:
-        header, specs = suites.load_suite(args.target, args.trials)
+        suite = suites.load_suite(args.target, args.trials)
         if args.overrides or args.preset or args.offsets:
             print("note: --set/--preset/--offsets apply to single-task runs; the suite file fixes them")
     except UnknownNameError as suite_error:
+        offsets = None if args.offsets is None else [float(x) for x in args.offsets.split(",")]
         try:
-            specs = task_specs(args)
+            suite = suites.task_suite(
+                args.target,
+                preset=args.preset,
+                overrides=args.overrides,
+                offsets=offsets,
+                trials=args.trials or 1,
+                seed=args.seed,
+            )
         except UnknownNameError as task_error:
             raise UnknownNameError(
                 "suite or task", args.target, suite_error.known + task_error.known
             ) from None
-        header = {"name": args.target.replace("/", "_"), "description": "", "sweep": ["offset_m"]}
-    out = args.out or Path("results") / header["name"]
+    specs = list(suite.specs)
+    out = args.out or Path("results") / suite.name
     log = TrialLog(out / "trials.jsonl")
-    print(f"{header['name']}: {len(specs)} trials -> {out}")
+    print(f"{suite.name}: {len(specs)} trials -> {out}")
     for text in dict.fromkeys(w for spec in specs for w in envelope_warnings(spec.config)):
         print(f"warning: {text}")
     run_trials(

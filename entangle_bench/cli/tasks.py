@@ -19,12 +19,12 @@ def run(args: argparse.Namespace) -> int:
     """Print the lists."""
     print("tasks:")
     for name in TASKS.names():
-        entry = TASKS.get(name)
+        entry = TASKS.entry(name)
         print(f"  {name:36s} [{','.join(entry.tags)}] {entry.description}")
     print("suites (tasks/*.toml):")
-    for name in suites.suite_names():
-        header, specs = suites.load_suite(name)
-        print(f"  {name:24s} {len(specs):5d} trials  {header['description']}")
+    for name in suites.SUITES.names():
+        suite = suites.load_suite(name)
+        print(f"  {name:24s} {len(suite.specs):5d} trials  {suite.description}")
     print("presets:")
     for name, preset in PRESETS.items():
         n = preset.numerics

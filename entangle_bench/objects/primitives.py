@@ -10,6 +10,7 @@ import math
 
 from entangle_bench.config import check_range
 from entangle_bench.errors import ParameterError
+from entangle_bench.objects.catalog import register_object
 from entangle_bench.objects.geometry import Box, Cylinder, Part, Shape, Sphere
 
 
@@ -33,6 +34,8 @@ class SphereParams:
                         low_open=True)
 
 
+@register_object("sphere", SphereParams(), "100 mm light hollow ball, 50 g")
+@register_object("tennis_ball", SphereParams(0.067, 0.058, 0.006), "tennis ball, 67 mm, 58 g")
 def build_sphere(p: SphereParams) -> Shape:
     """Shape of a ball resting on its bottom point."""
     r = p.diameter_m / 2
@@ -71,6 +74,13 @@ class CylinderParams:
         check_range("wall_segments", self.wall_segments, 6, 64)
 
 
+@register_object("cylinder_38", CylinderParams(0.038, 0.10, 0.05), "upright cylinder, 38 mm x 100 mm, 50 g")
+@register_object("cylinder_51", CylinderParams(0.051, 0.10, 0.09), "upright cylinder, 51 mm x 100 mm, 90 g")
+@register_object(
+    "cylinder_51_hollow",
+    CylinderParams(0.051, 0.10, 0.056, wall_thickness_m=0.003),
+    "open tube, 51 mm outer diameter, 3 mm wall, 100 mm long",
+)
 def build_cylinder(p: CylinderParams) -> Shape:
     """Shape of an upright cylinder or tube standing on its flat end."""
     r = p.diameter_m / 2
@@ -106,6 +116,7 @@ class CubeParams:
         check_range("mass_kg", self.mass_kg, 0.0, 20.0, low_open=True)
 
 
+@register_object("cube", CubeParams(), "50 mm cube, 75 g")
 def build_cube(p: CubeParams) -> Shape:
     """Shape of a cube resting on a face."""
     h = p.edge_m / 2
@@ -144,6 +155,7 @@ class BracketParams:
         check_range("mass_kg", self.mass_kg, 0.0, 20.0, low_open=True)
 
 
+@register_object("bracket", BracketParams(), "bar clamp lying flat (bar, two jaws, handle)")
 def build_bracket(p: BracketParams) -> Shape:
     """Shape of the flat-lying bar clamp."""
     t2 = p.thickness_m / 2

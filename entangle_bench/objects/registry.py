@@ -1,4 +1,6 @@
-"""Registry of target objects by name and the single entry point that adds one to an MjSpec.
+"""Target objects by name (`catalog.OBJECTS`) and the single entry point that adds one to an MjSpec.
+
+Trees and primitives register next to their builders; the Dex-Net meshes are registered here.
 
 Body convention: one free body `object` whose origin lies on the object's vertical axis (the trunk
 axis of trees, otherwise the centre of the bounding box in x and y) at its lowest point, so
@@ -11,21 +13,21 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from entangle_bench.errors import ParameterError, UnknownNameError
-from entangle_bench.objects import meshes, primitives, trees
+from entangle_bench.errors import ParameterError
+from entangle_bench.objects import meshes, primitives, trees  # noqa: F401  (trees and primitives register)
+from entangle_bench.objects.catalog import OBJECTS, register_object
 from entangle_bench.objects.geometry import (
     Box,
     Capsule,
     ConvexMesh,
     Cylinder,
     Part,
-    Shape,
     Sphere,
     hull_points,
     hull_volume,
@@ -43,34 +45,13 @@ _DEXNET = {
     "pawn": meshes.CoacdSettings(),
 }
 
-_REGISTRY: dict[str, tuple[Any, str]] = {
-    "eight_branch_tree": (trees.EightBranchTreeParams(),
-                          "reference tree: trunk with 8 capsule branches on a base disc"),
-    "random_tree": (trees.RandomTreeParams(), "seeded procedural tree (plant / coral stand-in)"),
-    "sphere": (primitives.SphereParams(), "100 mm light hollow ball, 50 g"),
-    "tennis_ball": (primitives.SphereParams(0.067, 0.058, 0.006), "tennis ball, 67 mm, 58 g"),
-    "cylinder_38": (primitives.CylinderParams(0.038, 0.10, 0.05),
-                    "upright cylinder, 38 mm x 100 mm, 50 g"),
-    "cylinder_51": (primitives.CylinderParams(0.051, 0.10, 0.09),
-                    "upright cylinder, 51 mm x 100 mm, 90 g"),
-    "cylinder_51_hollow": (primitives.CylinderParams(0.051, 0.10, 0.056, wall_thickness_m=0.003),
-                           "open tube, 51 mm outer diameter, 3 mm wall, 100 mm long"),
-    "cube": (primitives.CubeParams(), "50 mm cube, 75 g"),
-    "bracket": (primitives.BracketParams(), "bar clamp lying flat (bar, two jaws, handle)"),
-    **{f"dexnet_{stem}": (meshes.MeshObjectParams(f"dexnet/{stem}.obj", coacd=settings),
-                          f"Dex-Net 2.0 adversarial mesh {stem} (CC, see assets/dexnet/SOURCE.md)")
-       for stem, settings in _DEXNET.items()},
-}
-
-_BUILDERS: dict[type, Callable[[Any], Shape]] = {
-    trees.EightBranchTreeParams: trees.build_eight_branch_tree,
-    trees.RandomTreeParams: trees.build_random_tree,
-    primitives.SphereParams: primitives.build_sphere,
-    primitives.CylinderParams: primitives.build_cylinder,
-    primitives.CubeParams: primitives.build_cube,
-    primitives.BracketParams: primitives.build_bracket,
-    meshes.MeshObjectParams: meshes.build_mesh_object,
-}
+for _stem, _settings in _DEXNET.items():
+    register_object(
+        f"dexnet_{_stem}",
+        meshes.MeshObjectParams(f"dexnet/{_stem}.obj", coacd=_settings),
+        f"Dex-Net 2.0 adversarial mesh {_stem} (CC, see assets/dexnet/SOURCE.md)",
+        tags=("mesh",),
+    )(meshes.build_mesh_object)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,29 +90,22 @@ class BuiltObject:
 
 def names() -> list[str]:
     """Names of all registered objects, sorted."""
-    return sorted(_REGISTRY)
-
-
-def _entry(name: str) -> tuple[Any, str]:
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        raise UnknownNameError("object", name, names()) from None
+    return OBJECTS.names()
 
 
 def default_params(name: str) -> Any:
     """The frozen params dataclass of object `name` with its default values."""
-    return _entry(name)[0]
+    return OBJECTS.get(name).default_params
 
 
 def description(name: str) -> str:
     """One-line description of object `name`."""
-    return _entry(name)[1]
+    return OBJECTS.entry(name).description
 
 
 def is_mesh_object(name: str) -> bool:
     """Whether object `name` comes from a mesh file (and so from a convex decomposition)."""
-    return isinstance(default_params(name), meshes.MeshObjectParams)
+    return "mesh" in OBJECTS.entry(name).tags
 
 
 def _check_params(name: str, params: Any) -> Any:
@@ -147,7 +121,7 @@ def _check_params(name: str, params: Any) -> Any:
 
 @functools.lru_cache(maxsize=64)
 def _build(name: str, params: Any) -> BuiltObject:
-    shape = _BUILDERS[type(params)](params)
+    shape = OBJECTS.get(name).build(params)
     lo = np.min([p.bounds()[0] for p in shape.parts], axis=0)
     hi = np.max([p.bounds()[1] for p in shape.parts], axis=0)
     axis = (lo[:2] + hi[:2]) / 2 if shape.axis_xy is None else np.asarray(shape.axis_xy)

@@ -13,6 +13,7 @@ import numpy as np
 
 from entangle_bench.config import check_range
 from entangle_bench.errors import ParameterError
+from entangle_bench.objects.catalog import register_object
 from entangle_bench.objects.geometry import Capsule, Cylinder, Part, Shape
 
 
@@ -77,6 +78,9 @@ class EightBranchTreeParams:
         check_range("mass_kg", self.mass_kg, 0.0, 10.0, low_open=True)
 
 
+@register_object(
+    "eight_branch_tree", EightBranchTreeParams(), "reference tree: trunk with 8 capsule branches on a base disc"
+)
 def build_eight_branch_tree(p: EightBranchTreeParams) -> Shape:
     """Shape of the reference tree (trunk axis = z, base bottom at z = 0)."""
     parts, z0 = _trunk_and_base(p.trunk_height_m, p.trunk_radius_m, p.base_radius_m,
@@ -145,6 +149,7 @@ class RandomTreeParams:
         check_range("mass_kg", self.mass_kg, 0.0, 10.0, low_open=True)
 
 
+@register_object("random_tree", RandomTreeParams(), "seeded procedural tree (plant / coral stand-in)")
 def build_random_tree(p: RandomTreeParams) -> Shape:
     """Shape of the seeded procedural tree (trunk axis = z, base bottom at z = 0)."""
     rng = np.random.default_rng(p.seed)

@@ -1,4 +1,5 @@
-"""The harness's own filament (ball-joint chain, `entangle_bench.filament`) brought to static equilibrium.
+"""The harness's own filament (ball-joint chain, `entangle_bench.filament`) as a clamped rod, and the relaxation
+that brings any rod representation to a stable static equilibrium (`representations.solve_representation`).
 
 The rod is built with exactly the builder the gripper uses, clamped at the case's base frame, started in its
 rest shape, and relaxed with dynamic relaxation (kinetic damping) until every body is at rest. It has
@@ -13,17 +14,13 @@ and pushes a saddle along its unstable mode before relaxing again.
 
 from __future__ import annotations
 
-import dataclasses
-import time
-
 import mujoco
 import numpy as np
 
 from entangle_bench.effects import NO_CONTACT, apply_effects
-from entangle_bench.errors import ParameterError
-from entangle_bench.filament import FilamentParams, add_filament, rest_quaternions
-from entangle_bench.presets import Numerics, get_preset
-from entangle_bench.rods.case import RodCase, RodResult, resample_centerline
+from entangle_bench.filament import FilamentParams, add_filament
+from entangle_bench.presets import Numerics
+from entangle_bench.rods.case import RodCase
 from entangle_bench.scene import step_until_rest
 
 #: Statics need no realistic damping: a long relaxation time with implicit damping settles fastest.
@@ -130,57 +127,3 @@ def relax_to_stable_equilibrium(
         mujoco.mj_integratePos(model, data.qpos, PERTURBATION_RAD * mode, 1.0)
         data.qvel[:] = 0.0
     return False, MAX_STABILITY_CHECKS
-
-
-def solve_mujoco(
-    case: RodCase,
-    preset: str = "balanced",
-    n_segments: int | None = None,
-    numerics: Numerics | None = None,
-    points: int = 201,
-    max_time_s: float = 60.0,
-) -> RodResult:
-    """Static equilibrium of `case` with the harness filament; centerline at `points` uniform-arclength points.
-
-    The preset sets segments and numerics; `n_segments`/`numerics` override them. Statics always use
-    implicit damping (`implicitfast`) so the long relaxation time is stable. `max_time_s` bounds each
-    relaxation in simulated seconds.
-    """
-    chosen = get_preset(preset)
-    n = n_segments or chosen.n_segments
-    numerics = numerics or chosen.numerics
-    statics = dataclasses.replace(numerics, integrator="implicitfast")
-    model, adr, bodies = build_rod(case, n, statics)
-    ds = case.length / n
-    rest = rest_quaternions(n, ds, case.darboux)
-    model.qpos_spring[adr] = rest
-    data = mujoco.MjData(model)
-    data.qpos[adr] = rest
-    ids = [model.body(b).id for b in bodies]
-
-    def vertices(d: mujoco.MjData) -> np.ndarray:
-        tip = d.xpos[ids[-1]] + ds * d.xmat[ids[-1]].reshape(3, 3)[:, 0]
-        return np.vstack([d.xpos[ids], tip])
-
-    start = time.perf_counter()
-    settled, saddles = relax_to_stable_equilibrium(model, data, case.length, max_time_s)
-    wall = time.perf_counter() - start
-    if not settled:
-        raise ParameterError(
-            f"rod case {case.name!r} did not reach a stable static equilibrium within {max_time_s} s of "
-            f"simulated time per relaxation with {n} segments and dt = {statics.timestep_s} s"
-        )
-    return RodResult(
-        centerline=resample_centerline(vertices(data), points, method="linear"),
-        engine="mujoco",
-        wall_time_s=wall,
-        settings={
-            "preset": preset,
-            "representation": "ball",
-            "n_segments": n,
-            "timestep_s": statics.timestep_s,
-            "integrator": statics.integrator,
-            "sim_time_s": data.time,
-            "saddles_left": saddles,
-        },
-    )

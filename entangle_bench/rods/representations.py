@@ -34,15 +34,18 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from entangle_bench.config import check_choice, check_range
+from entangle_bench.config import check_range
 from entangle_bench.errors import ParameterError
 from entangle_bench.filament import rest_quaternions, rest_rotation_quat
-from entangle_bench.presets import Numerics, get_preset
+from entangle_bench.presets import DEFAULT_PRESET, Numerics, get_preset
+from entangle_bench.registry import Registry
 from entangle_bench.rods import mujoco_engine
 from entangle_bench.rods.case import RodCase, RodResult, resample_centerline
 from entangle_bench.scene import step_until_rest
 
-REPRESENTATIONS = ("ball", "ball_twist", "cable", "flex1d")
+#: (case, n_segments, numerics, damping_time_s) -> RodModel, by representation name.
+Builder = Callable[[RodCase, int, Numerics, float], "RodModel"]
+REPRESENTATIONS: Registry[Builder] = Registry("representation")
 
 
 @dataclass
@@ -88,6 +91,7 @@ def _chain_vertices(ids: list[int], ds: float, skip_half_first: bool) -> Callabl
     return vertices
 
 
+@REPRESENTATIONS.register("ball", tags=("harness",))
 def _build_ball(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
     """The harness filament (`mujoco_engine.build_rod`) in its rest shape."""
     model, adr, bodies = mujoco_engine.build_rod(case, n, numerics, damping_time_s)
@@ -114,6 +118,7 @@ def series_twist_stiffness(case: RodCase, ds: float) -> float:
     return 1.0 / (ds * (1.0 / gj - 1.0 / ei))
 
 
+@REPRESENTATIONS.register("ball_twist")
 def _build_ball_twist(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
     """Harness-like ball chain with a series twist hinge in every body (see module docstring)."""
     ds = case.length / n
@@ -200,6 +205,7 @@ def _cable_xml(case: RodCase, n: int, h: float, damping: float) -> str:
 </mujoco>"""
 
 
+@REPRESENTATIONS.register("cable")
 def _build_cable(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
     """Composite cable with the elasticity plugin, rest shape in the body quaternions."""
     h = case.length / (n - 0.5)
@@ -229,6 +235,7 @@ def _build_cable(case: RodCase, n: int, numerics: Numerics, damping_time_s: floa
     return RodModel(model, data, _chain_vertices(ids, h, True), "cable", n, numerics.integrator)
 
 
+@REPRESENTATIONS.register("flex1d")
 def _build_flex1d(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
     """1D flexcomp rod with bending elasticity, hard edge constraints and the `discrete` integrator."""
     if any(case.intrinsic_curvature) or case.intrinsic_twist:
@@ -279,9 +286,6 @@ def _build_flex1d(case: RodCase, n: int, numerics: Numerics, damping_time_s: flo
     return RodModel(model, data, vertices, "flex1d", n, "discrete")
 
 
-_BUILDERS = {"ball": _build_ball, "ball_twist": _build_ball_twist, "cable": _build_cable, "flex1d": _build_flex1d}
-
-
 def build_representation(
     case: RodCase,
     representation: str,
@@ -293,17 +297,16 @@ def build_representation(
 
     `damping_time_s` (s) is the Kelvin-Voigt (Rayleigh) relaxation time of the bending/twist springs.
     """
-    check_choice("representation", representation, REPRESENTATIONS)
     check_range("n_segments", n_segments, 2, 1000)
     check_range("damping_time_s", damping_time_s, 0.0, 10.0)
-    return _BUILDERS[representation](case, int(n_segments), numerics, damping_time_s)
+    return REPRESENTATIONS.get(representation)(case, int(n_segments), numerics, damping_time_s)
 
 
 def solve_representation(
     case: RodCase,
     representation: str,
     n_segments: int | None = None,
-    preset: str = "balanced",
+    preset: str = DEFAULT_PRESET,
     numerics: Numerics | None = None,
     points: int = 201,
     max_time_s: float = 60.0,

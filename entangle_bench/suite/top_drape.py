@@ -1,34 +1,34 @@
-"""The top-drape lift-and-hold task as a dm-control environment.
+"""The top-drape lift-and-hold task family: one registered task per object of the object library.
 
 Sequence (Becker et al., PNAS 2022): approach (the hub lowers so the hanging filaments drape over the object)
 -> actuate (pressure ramp) -> settle -> lift -> hold -> release. The task initializes episodes, computes
-observations, reward and the grasp outcome; it never steps the physics. The action is hub velocity (m/s) plus
-the pressure as a fraction of the operating pressure, so a learned policy can drive the same environment;
-the benchmark drives it with `scripted_action`.
+observations, reward and the grasp outcome (decided once, at the end of the hold); it never steps the physics.
+The action is hub velocity (m/s) plus the pressure as a fraction of the operating pressure, so a learned policy
+can drive the same environment; the benchmark drives it with `TopDrape.scripted_action`. Snapshots `actuated`
+and `held` are taken at the start of the lift and of the release.
 """
 
 from __future__ import annotations
 
 import collections
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
 import numpy as np
-from dm_control import mujoco as dm_mujoco
 from dm_control.rl import control
-from dm_control.suite import base
-from dm_env import specs
 
 from entangle_bench import effects as fx
+from entangle_bench import objects
 from entangle_bench.config import check_range
-from entangle_bench.gripper import GripperParams, bending_angles
-from entangle_bench.metrics.contacts import KINDS, classify_geom_pairs
+from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import Numerics
-from entangle_bench.scene import ContactParams, Scene, SceneConfig, build_scene
+from entangle_bench.scene import ContactParams, SceneConfig, build_scene
+from entangle_bench.suite.base import Outcome, register_task
+from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, GripperTask, ScenePhysics
 
-MAX_HUB_SPEED_M_S = 2.0
 PHASES = ("approach", "actuate", "settle", "lift", "hold", "release", "done")
 
 
@@ -145,210 +145,158 @@ class Schedule:
         return "done"
 
 
-def scripted_action(config: TopDrapeConfig, schedule: Schedule, t: float) -> np.ndarray:
-    """The reference open-loop policy: (hub vx, vy, vz in m/s, pressure fraction) at time t (s)."""
-    ph = config.phases
-    phase = schedule.phase(t)
-    vz, pressure = 0.0, 0.0
-    if phase == "approach":
-        vz = -ph.approach_speed_m_s
-    elif phase == "actuate":
-        pressure = (t - schedule.t_actuate) / ph.ramp_time_s if ph.ramp_time_s > 0 else 1.0
-    elif phase in ("settle", "hold"):
-        pressure = 1.0
-    elif phase == "lift":
-        vz, pressure = ph.lift_speed_m_s, 1.0
-    elif phase == "release":
-        pressure = 1.0 - (t - schedule.t_release) / ph.release_time_s if ph.release_time_s > 0 else 0.0
-    return np.array([0.0, 0.0, vz, min(1.0, max(0.0, pressure))])
-
-
-class Physics(dm_mujoco.Physics):
-    """MuJoCo physics of a top-drape scene with named read-outs; the hub moves at `hub_velocity` each substep."""
-
-    scene: Scene
-    hub_velocity: np.ndarray
-
-    @classmethod
-    def from_scene(cls, scene: Scene) -> Physics:
-        """Wrap a compiled scene."""
-        physics = cls.from_model(dm_mujoco.wrapper.MjModel(scene.model))
-        physics.scene = scene
-        physics.hub_velocity = np.zeros(3)
-        return physics
-
-    def step(self, nstep: int = 1) -> None:
-        """Advance `nstep` physics steps, moving the mocap hub by hub_velocity * dt before each."""
-        model, data = self.model.ptr, self.data.ptr
-        with self.check_invalid_state():
-            for _ in range(nstep):
-                data.mocap_pos[0] += self.hub_velocity * model.opt.timestep
-                mujoco.mj_step(model, data)
-
-    def hub_position(self) -> np.ndarray:
-        """Hub position, m."""
-        return self.data.mocap_pos[0].copy()
-
-    def object_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """Object position (m) and quaternion."""
-        body = self.scene.object_body
-        return self.data.xpos[body].copy(), self.data.xquat[body].copy()
-
-    def object_lowest_z(self) -> float:
-        """Lower bound of the object's lowest point from its geoms' bounding boxes, m."""
-        model, data = self.model.ptr, self.data.ptr
-        ids = np.flatnonzero(self.scene.is_object_geom)
-        rot = data.geom_xmat[ids].reshape(-1, 3, 3)
-        center = data.geom_xpos[ids] + np.einsum("gij,gj->gi", rot, model.geom_aabb[ids, :3])
-        reach = np.einsum("gj,gj->g", np.abs(rot[:, 2, :]), model.geom_aabb[ids, 3:])
-        return float(np.min(center[:, 2] - reach))
-
-    def centerlines(self) -> np.ndarray:
-        """(F, n + 1, 3) filament centerlines, m."""
-        return self.scene.gripper.centerlines(self.model.ptr, self.data.ptr)
-
-    def contact_counts(self) -> dict[str, int]:
-        """Active contacts by kind."""
-        return count_contacts(self.scene, self.data.ptr)
-
-
-def count_contacts(scene: Scene, data: mujoco.MjData) -> dict[str, int]:
-    """Numbers of active contacts by kind (`metrics.contacts.KINDS`)."""
-    kinds = classify_geom_pairs(
-        data.contact.geom[: data.ncon], scene.filament_of_geom, scene.is_object_geom, scene.is_ground_geom
-    )
-    return {kind: int(np.count_nonzero(kinds == kind)) for kind in KINDS}
-
-
 @dataclass
-class Outcome:
-    """Grasp bookkeeping updated after every control step."""
+class _GraspTracking:
+    """Running bookkeeping of the grasp, updated after every control step (SI units)."""
 
     max_rise_m: float = 0.0
+    """Largest rise of the object's origin above its start so far, m."""
     lifted: bool = False
+    """The object's lowest point cleared the success margin during the lift."""
     low_at_hold_start: bool = False
     hold_failed_at_s: float | None = None
+    """Hold time at which the object first fell below the margin, s."""
     hold_reached_s: float = 0.0
-    finished: bool = False
-
-    def classify(self) -> tuple[bool, str]:
-        """(success, failure mode) once the hold is over; failure mode '' on success."""
-        if self.hold_failed_at_s is None and self.finished:
-            return True, ""
-        if not self.lifted:
-            return False, "never_lifted"
-        if self.low_at_hold_start:
-            return False, "dropped_during_lift"
-        return False, "dropped_during_hold"
+    """Hold time the object stayed above the margin, s."""
 
 
-class TopDrape(base.Task):
+class TopDrape(GripperTask[TopDrapeConfig]):
     """Drape the filament array over an object, actuate, lift and hold."""
 
-    def __init__(self, config: TopDrapeConfig, object_height_m: float, seed: int):
-        super().__init__(random=seed)
-        self.config = config
-        self.seed = seed
-        self.rng = np.random.default_rng(seed)
-        self.schedule = Schedule.from_config(config, object_height_m)
-        self.angles = np.zeros(config.gripper.n_filaments)
-        self.outcome = Outcome()
-        self._object_z0 = 0.0
-        self._pressure_fraction = 0.0
+    PHASES = PHASES
+    SNAPSHOTS = {"actuated": "lift", "held": "release"}
 
-    def initialize_episode(self, physics: Physics) -> None:
+    def __init__(self, config: TopDrapeConfig, object_height_m: float, seed: int):
+        super().__init__(config, seed)
+        self.schedule = Schedule.from_config(config, object_height_m)
+        self._tracking = _GraspTracking()
+        self._object_z0 = 0.0
+
+    def initialize_episode(self, physics: ScenePhysics) -> None:
         """Draw bending planes, offset direction and joint perturbations; place the hub above the object."""
         cfg, model, data = self.config, physics.model.ptr, physics.data.ptr
-        self.angles = bending_angles(cfg.gripper, self.rng)
+        self.reset_actuation(physics)
         angle = self.rng.uniform(-math.pi, math.pi) if cfg.offset_angle_rad is None else cfg.offset_angle_rad
         data.mocap_pos[0] = (
             cfg.offset_m * math.cos(angle),
             cfg.offset_m * math.sin(angle),
             self.schedule.hub_start_z,
         )
-        physics.scene.gripper.set_pressure(model, 0.0, self.angles)
-        adr = physics.scene.gripper.spring_addresses.reshape(-1, 4)
-        rotvec = self.rng.normal(0.0, cfg.perturbation_rad, size=(len(adr), 3))
-        quat = np.empty(4)
-        for row, vec in zip(adr, rotvec):
-            angle = float(np.linalg.norm(vec))
-            mujoco.mju_axisAngle2Quat(quat, vec / (angle + 1e-300), angle)
-            data.qpos[row] = quat
-        physics.hub_velocity[:] = 0.0
+        self.perturb_joints(physics, cfg.perturbation_rad)
         mujoco.mj_kinematics(model, data)
         self._object_z0 = physics.object_pose()[0][2]
-        self.outcome = Outcome()
-        self._pressure_fraction = 0.0
+        self._tracking = _GraspTracking()
+        super().initialize_episode(physics)
 
-    def action_spec(self, physics: Physics) -> specs.BoundedArray:
-        """Hub velocity (m/s, 3) and pressure fraction (0..1)."""
-        v = MAX_HUB_SPEED_M_S
-        return specs.BoundedArray(
-            (4,), np.float64, minimum=(-v, -v, -v, 0.0), maximum=(v, v, v, 1.0), name="hub_velocity_pressure"
-        )
+    def phase(self, physics: ScenePhysics) -> str:
+        """Phase of the scripted sequence the next control step runs in."""
+        return self.schedule.phase(physics.time() + 1e-9)
 
-    def before_step(self, action: np.ndarray, physics: Physics) -> None:
-        """Set the hub velocity and the shared pressure."""
-        action = np.asarray(action, dtype=float)
-        physics.hub_velocity[:] = np.clip(action[:3], -MAX_HUB_SPEED_M_S, MAX_HUB_SPEED_M_S)
-        fraction = float(np.clip(action[3], 0.0, 1.0))
-        if fraction != self._pressure_fraction:
-            self._pressure_fraction = fraction
-            physics.scene.gripper.set_pressure(
-                physics.model.ptr, fraction * self.config.gripper.pressure_pa, self.angles
-            )
+    def scripted_action(self, physics: ScenePhysics) -> np.ndarray:
+        """The reference open-loop policy: (hub vx, vy, vz in m/s, pressure fraction) at the current time."""
+        ph, schedule, t = self.config.phases, self.schedule, physics.time()
+        phase = schedule.phase(t)
+        vz, pressure = 0.0, 0.0
+        if phase == "approach":
+            vz = -ph.approach_speed_m_s
+        elif phase == "actuate":
+            pressure = (t - schedule.t_actuate) / ph.ramp_time_s if ph.ramp_time_s > 0 else 1.0
+        elif phase in ("settle", "hold"):
+            pressure = 1.0
+        elif phase == "lift":
+            vz, pressure = ph.lift_speed_m_s, 1.0
+        elif phase == "release":
+            pressure = 1.0 - (t - schedule.t_release) / ph.release_time_s if ph.release_time_s > 0 else 0.0
+        return np.array([0.0, 0.0, vz, min(1.0, max(0.0, pressure))])
 
-    def after_step(self, physics: Physics) -> None:
-        """Track the grasp outcome."""
-        t, s, out = physics.time(), self.schedule, self.outcome
+    def after_step(self, physics: ScenePhysics) -> None:
+        """Track the grasp; decide the outcome once the hold is over.
+
+        Success: the object's lowest point stays at least `success_margin_m` above the ground for the whole
+        hold. Failure modes: never_lifted, dropped_during_lift (low when the hold starts),
+        dropped_during_hold.
+        """
+        t, s, track = physics.time(), self.schedule, self._tracking
         low = physics.object_lowest_z()
         margin = self.config.success_margin_m
-        out.max_rise_m = max(out.max_rise_m, physics.object_pose()[0][2] - self._object_z0)
+        track.max_rise_m = max(track.max_rise_m, physics.object_pose()[0][2] - self._object_z0)
         phase = s.phase(t - 1e-9)
         if phase == "lift" and low >= margin:
-            out.lifted = True
+            track.lifted = True
         if phase == "hold":
-            if out.hold_reached_s == 0.0 and low < margin:
-                out.low_at_hold_start = True
-            if out.hold_failed_at_s is None:
+            if track.hold_reached_s == 0.0 and low < margin:
+                track.low_at_hold_start = True
+            if track.hold_failed_at_s is None:
                 if low < margin:
-                    out.hold_failed_at_s = t - s.t_hold
+                    track.hold_failed_at_s = t - s.t_hold
                 else:
-                    out.hold_reached_s = t - s.t_hold
-        if t >= s.t_release - 1e-9:
-            out.finished = True
+                    track.hold_reached_s = t - s.t_hold
+        if t >= s.t_release - 1e-9 and self.outcome is None:
+            self.decide(self._classify(t))
 
-    @property
-    def pressure_pa(self) -> float:
-        """Current commanded pressure, Pa."""
-        return self._pressure_fraction * self.config.gripper.pressure_pa
+    def _classify(self, t: float) -> Outcome:
+        """The outcome from the tracking at the end of the hold (time t, s)."""
+        track = self._tracking
+        evidence = {
+            "max_rise_m": float(track.max_rise_m),
+            "lifted": float(track.lifted),
+            "hold_reached_s": track.hold_reached_s,
+            "hold_failed_at_s": math.nan if track.hold_failed_at_s is None else track.hold_failed_at_s,
+        }
+        if track.hold_failed_at_s is None:
+            return Outcome("success", "", t, evidence)
+        if not track.lifted:
+            mode = "never_lifted"
+        elif track.low_at_hold_start:
+            mode = "dropped_during_lift"
+        else:
+            mode = "dropped_during_hold"
+        return Outcome("failure", mode, t, evidence)
 
-    def get_observation(self, physics: Physics) -> collections.OrderedDict:
-        """Filament centerlines, hub and object pose, contact counts, pressure."""
+    def metrics(self, physics: ScenePhysics) -> dict[str, float]:
+        """Largest rise of the object over the trial (m) and how long the hold held (s)."""
+        return {"lift_height_m": self._tracking.max_rise_m, "hold_time_reached_s": self._tracking.hold_reached_s}
+
+    def get_observation(self, physics: ScenePhysics) -> collections.OrderedDict:
+        """Filament centerlines, hub and object pose, contact counts by kind, pressure."""
         pos, quat = physics.object_pose()
-        counts = physics.contact_counts()
+        gripper = self.gripper_observation(physics)
         return collections.OrderedDict(
-            centerlines=physics.centerlines().ravel(),
-            hub_position=physics.hub_position(),
+            centerlines=gripper["centerlines"],
+            hub_position=gripper["hub_position"],
             object_position=pos,
             object_quaternion=quat,
-            contact_counts=np.array(list(counts.values()), dtype=float),
-            pressure=np.array([self.pressure_pa]),
+            contact_counts=gripper["contact_counts"],
+            pressure=gripper["pressure"],
         )
-
-    def get_reward(self, physics: Physics) -> float:
-        """1 while the object's lowest point is above the success margin, else 0."""
-        return float(physics.object_lowest_z() >= self.config.success_margin_m)
 
 
 def make_environment(config: TopDrapeConfig, seed: int) -> control.Environment:
     """Build the dm-control environment of one trial."""
     scene = build_scene(config.scene_config(), hub_pos=(0.0, 0.0, 1.0))
-    physics = Physics.from_scene(scene)
     task = TopDrape(config, scene.object_info.height_m, seed)
     return control.Environment(
-        physics,
+        ScenePhysics.from_scene(scene),
         task,
         time_limit=task.schedule.t_end,
         n_sub_steps=config.n_sub_steps,
     )
+
+
+def _object_task(object_name: str) -> Callable[[], TopDrapeConfig]:
+    """Default-config function of the top-drape task of one object."""
+
+    def default_config() -> TopDrapeConfig:
+        return TopDrapeConfig(object_name=object_name, object=objects.default_params(object_name))
+
+    return default_config
+
+
+for _name in objects.names():
+    register_task(
+        f"top_drape/{_name}",
+        config_type=TopDrapeConfig,
+        make_environment=make_environment,
+        tags=("benchmark",) + (("mesh",) if objects.is_mesh_object(_name) else ()),
+        description=f"top-drape lift-and-hold of {_name}: {objects.description(_name)}",
+    )(_object_task(_name))

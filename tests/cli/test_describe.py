@@ -7,7 +7,7 @@ import re
 from entangle_bench import effects as fx
 from entangle_bench.cli import main
 from entangle_bench.scene import build_scene
-from entangle_bench.suite import resolve_config
+from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
 
 
 def described(capsys, *argv: str) -> str:
@@ -28,7 +28,7 @@ def test_counts_match_the_compiled_model(capsys):
     assert int(re.search(r"collision pairs: (\d+)", out).group(1)) == len(pairs)
     for kind, n in fx.pair_kinds(model, pairs).items():
         assert count(out, kind) == n
-    assert count(out, "filament_ground") == count(out, "object_ground") == 0
+    assert count(out, "filament-ground") == count(out, "object-ground") == 0
     assert re.search(r"ground_contact\s+off", out)
     assert f"nbody={model.nbody} nv={model.nv} ngeom={model.ngeom}" in out
     assert "hub_disk" in out  # the hub never collides
@@ -49,9 +49,7 @@ def test_bad_setting_is_a_clean_error(capsys):
 
 
 def test_run_prints_envelope_warnings_before_the_run(tmp_path, capsys):
-    from tests.suite.test_top_drape import SHORT
-
-    sets = [arg for item in SHORT + ["gripper.pressure_pa=6e5"] for arg in ("--set", item)]
+    sets = [arg for item in SHORT_SEQUENCE + ["gripper.pressure_pa=6e5"] for arg in ("--set", item)]
     argv = ["run", "eight_branch_tree", "--preset", "fast", "--workers", "1", "--no-progress"]
     assert main([*argv, "--out", str(tmp_path), *sets]) == 0
     out = capsys.readouterr().out

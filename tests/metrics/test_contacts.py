@@ -7,12 +7,8 @@ import numpy as np
 import pytest
 
 from entangle_bench.errors import ParameterError
-from entangle_bench.metrics.contacts import (
-    KINDS,
-    classify_geom_pairs,
-    contact_summary,
-    geom_classes,
-)
+from entangle_bench.geoms import KINDS, GeomClasses
+from entangle_bench.metrics.contacts import contact_summary
 
 GRAVITY = 9.81
 BOX_MASS, CAPSULE_MASS, RADIUS = 0.2, 0.01, 0.005
@@ -54,9 +50,9 @@ def stack_scene(apart: bool = False) -> mujoco.MjModel:
 
 def test_geom_classes_parse_the_naming_conventions():
     model = stack_scene()
-    filament_of_geom, is_object_geom = geom_classes(model)
+    geoms = GeomClasses.from_model(model)
     names = [model.geom(g).name for g in range(model.ngeom)]
-    assert dict(zip(names, filament_of_geom.tolist())) == {
+    assert dict(zip(names, geoms.filament.tolist())) == {
         "ground": -1,
         "object_box": -1,
         "f00_g000": 0,
@@ -64,7 +60,9 @@ def test_geom_classes_parse_the_naming_conventions():
         "f02_g000": 2,
         "f03_g000": 3,
     }
-    assert [n for n, o in zip(names, is_object_geom) if o] == ["object_box"]
+    assert [n for n, o in zip(names, geoms.is_object) if o] == ["object_box"]
+    assert [n for n, g in zip(names, geoms.is_ground) if g] == ["ground"]
+    assert geoms.n_filaments == 4
 
 
 def test_resting_stack_counts_and_force_balance():
@@ -72,7 +70,7 @@ def test_resting_stack_counts_and_force_balance():
     data = mujoco.MjData(model)
     for _ in range(500):  # 1 s: the stack settles
         mujoco.mj_step(model, data)
-    summary = contact_summary(model, data, *geom_classes(model))
+    summary = contact_summary(model, data)
     counts = summary.counts
     assert set(counts) == set(KINDS)
     assert counts["filament-filament"] == 2  # filament 2 crosses 0 and 1
@@ -102,7 +100,7 @@ def test_far_apart_bodies_have_no_contacts():
     model = stack_scene(apart=True)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    summary = contact_summary(model, data, *geom_classes(model))
+    summary = contact_summary(model, data, GeomClasses.from_model(model))
     assert all(v == 0 for v in summary.counts.values())
     assert summary.points.shape == (0, 3)
     assert summary.per_filament.tolist() == [0, 0, 0, 0]
@@ -110,29 +108,32 @@ def test_far_apart_bodies_have_no_contacts():
 
 def test_classify_geom_pairs_covers_every_kind():
     # geoms: 0 ground, 1 object, 2-3 filament 0, 4 filament 1, 5 other (e.g. hub)
-    filament_of_geom = np.array([-1, -1, 0, 0, 1, -1])
-    is_object_geom = np.array([False, True, False, False, False, False])
-    is_ground_geom = np.array([True, False, False, False, False, False])
-    pairs = [[2, 1], [4, 2], [2, 3], [0, 4], [1, 0], [5, 2], [5, 1]]
-    kinds = classify_geom_pairs(pairs, filament_of_geom, is_object_geom, is_ground_geom)
-    assert kinds.tolist() == [
-        "filament-object",
-        "filament-filament",
-        "filament-self",
-        "filament-ground",
-        "object-ground",
-        "other",
-        "other",
-    ]
+    geoms = GeomClasses.from_names(["ground", "object_a", "f00_g000", "f00_g001", "f01_g000", "hub_disk"])
+    expected = {
+        (2, 1): "filament-object",
+        (4, 2): "filament-filament",
+        (2, 3): "filament-self",
+        (0, 4): "filament-ground",
+        (1, 0): "object-ground",
+        (5, 2): "other",  # the hub disk touches nothing by kind
+        (5, 1): "other",
+    }
+    pairs = list(expected)
+    kinds = geoms.kinds(pairs)
+    assert dict(zip(pairs, kinds.tolist())) == expected
+    assert set(kinds) | {"other"} == set(KINDS)
+    assert geoms.count_kinds(pairs) == {kind: kinds.tolist().count(kind) for kind in KINDS}
 
 
 def test_rejects_misshapen_class_arrays():
     model = stack_scene()
     data = mujoco.MjData(model)
-    filament_of_geom, is_object_geom = geom_classes(model)
-    with pytest.raises(ParameterError, match="filament_of_geom"):
-        contact_summary(model, data, filament_of_geom[:-1], is_object_geom)
-    with pytest.raises(ParameterError, match="is_object_geom"):
-        contact_summary(model, data, filament_of_geom, is_object_geom.astype(int))
+    geoms = GeomClasses.from_model(model)
+    with pytest.raises(ParameterError, match="the model has 6"):
+        contact_summary(model, data, GeomClasses.from_names(["ground", "object_box"]))
+    with pytest.raises(ParameterError, match="is_object"):
+        GeomClasses(geoms.filament, geoms.is_object.astype(int), geoms.is_ground)
+    with pytest.raises(ParameterError, match="filament"):
+        GeomClasses(geoms.filament.astype(float), geoms.is_object, geoms.is_ground)
     with pytest.raises(ParameterError, match="contact kind"):
-        contact_summary(model, data, filament_of_geom, is_object_geom).normal_force_sum_n("x")
+        contact_summary(model, data, geoms).normal_force_sum_n("x")

@@ -18,7 +18,8 @@ from entangle_bench.presets import get_preset
 from entangle_bench.rods import analytic as an
 from entangle_bench.rods.case import centerline_error, load_case
 from entangle_bench.rods.elastica_engine import solve_elastica
-from entangle_bench.rods.mujoco_engine import build_rod, solve_mujoco, stiffness_matrix
+from entangle_bench.rods.mujoco_engine import build_rod, stiffness_matrix
+from entangle_bench.rods.representations import solve_representation
 
 CASE_DIR = Path(__file__).resolve().parents[2] / "tasks" / "rod_cases"
 
@@ -30,7 +31,7 @@ def _case(name: str):
 def test_arc_within_one_percent_at_accurate():
     # Issue requirement: closed-form arc within 1 % of L with the accurate preset (measured 2.3e-4).
     case = _case("arc_zero_gravity")
-    result = solve_mujoco(case, "accurate")
+    result = solve_representation(case, "ball", preset="accurate")
     error, _ = centerline_error(result.centerline, an.rest_centerline(case), case.length)
     assert error < 0.01
     assert result.settings["n_segments"] == get_preset("accurate").n_segments
@@ -40,7 +41,7 @@ def test_stiff_cantilever_within_two_percent_of_small_deflection_formula():
     # Issue requirement: tip drop q L^4 / (8 E I) within 2 % (measured 0.9 %, of which 0.7 % is the
     # formula's own linearisation), at the default preset.
     case = _case("stiff_cantilever")
-    result = solve_mujoco(case)
+    result = solve_representation(case, "ball")
     drop = case.base_position[2] - result.centerline[-1, 2]
     assert drop == pytest.approx(an.small_deflection_tip(case), rel=0.02)
 
@@ -49,7 +50,7 @@ def test_soft_cantilever_within_three_percent_of_pyelastica_at_balanced():
     # Issue requirement: 3 % of L against PyElastica at balanced (measured 1.5e-3 against 50 elements;
     # 12 elements are themselves within 3e-3 L of the elastica BVP).
     case = _case("soft_cantilever")
-    mujoco_result = solve_mujoco(case, "balanced")
+    mujoco_result = solve_representation(case, "ball", preset="balanced")
     reference = solve_elastica(case, 12)
     error, _ = centerline_error(mujoco_result.centerline, reference.centerline, case.length)
     assert error < 0.03
@@ -61,7 +62,7 @@ def test_chain_converges_at_second_order_on_the_arc():
     case = _case("arc_zero_gravity")
     exact = an.rest_centerline(case)
     errors = [
-        centerline_error(solve_mujoco(case, n_segments=n).centerline, exact, case.length)[0]
+        centerline_error(solve_representation(case, "ball", n).centerline, exact, case.length)[0]
         for n in (16, 32)
     ]
     assert 3.0 < errors[0] / errors[1] < 5.0
@@ -71,7 +72,7 @@ def test_hanging_curl_leaves_the_unstable_planar_branch():
     # 16 segments used to stop on a saddle 0.1 L from the BVP answer; with the stability check it reaches
     # the stable branch (measured 6.0e-3) and records that it had to leave a saddle.
     case = _case("curl_hanging")
-    result = solve_mujoco(case, "balanced")
+    result = solve_representation(case, "ball", preset="balanced")
     error, _ = centerline_error(result.centerline, an.planar_elastica_centerline(case), case.length)
     assert error < 0.012
     assert result.settings["saddles_left"] >= 1
@@ -83,12 +84,12 @@ def test_isotropic_twist_spring_explains_the_sideways_curl_error():
     case = _case("curl_sideways_gravity")
     isotropic = dataclasses.replace(case, poisson_ratio=0.0)
     error_iso, _ = centerline_error(
-        solve_mujoco(isotropic, n_segments=32).centerline,
+        solve_representation(isotropic, "ball", 32).centerline,
         an.kirchhoff_centerline(isotropic),
         case.length,
     )
     error_real, _ = centerline_error(
-        solve_mujoco(case, n_segments=32).centerline, an.kirchhoff_centerline(case), case.length
+        solve_representation(case, "ball", 32).centerline, an.kirchhoff_centerline(case), case.length
     )
     assert error_iso < 1e-3
     assert error_real > 0.03
@@ -110,4 +111,4 @@ def test_stiffness_matrix_of_straight_rod_is_the_joint_stiffness():
 def test_unsettled_rod_raises_naming_the_case():
     case = _case("soft_cantilever")
     with pytest.raises(ParameterError, match="soft_cantilever"):
-        solve_mujoco(case, max_time_s=0.05)
+        solve_representation(case, "ball", max_time_s=0.05)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from entangle_bench.errors import ParameterError
+from entangle_bench.errors import ParameterError, UnknownNameError
 from entangle_bench.rods import analytic as an
 from entangle_bench.rods.case import centerline_error, load_case
 from entangle_bench.rods.representations import series_twist_stiffness, solve_representation
@@ -65,6 +65,6 @@ def test_flex1d_bends_like_the_elastica_and_refuses_curved_cases():
         solve_representation(_case("soft_cantilever"), "flex1d", 40)
 
 
-def test_unknown_representation_is_rejected():
-    with pytest.raises(ParameterError, match="representation"):
+def test_unknown_representation_is_rejected_listing_the_known_ones():
+    with pytest.raises(UnknownNameError, match="representation 'spaghetti'.*ball, ball_twist, cable, flex1d"):
         solve_representation(_case("soft_cantilever"), "spaghetti", 8)

@@ -1,7 +1,9 @@
 """The stability envelope: table lookups, warnings, and the table re-measured against the engine."""
 
 import dataclasses
+from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from entangle_bench import effects as fx
@@ -9,14 +11,27 @@ from entangle_bench import stability
 from entangle_bench.filament import FilamentParams
 from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import PRESETS, get_preset
-from entangle_bench.scene import SceneConfig
+from entangle_bench.studies.stability_map import boundary, probe, probe_config
 from entangle_bench.suite import TASKS, resolve_config
+from entangle_bench.suite.probe import ProbeConfig
+
+STORED_MAP = Path(__file__).resolve().parents[2] / "results" / "stability"
 
 
 @pytest.mark.parametrize("preset", sorted(PRESETS))
 def test_every_task_at_every_preset_is_inside_its_envelope(preset):
     for task in TASKS.names():
         assert stability.envelope_warnings(resolve_config(task, preset)) == [], task
+
+
+def test_envelope_table_is_the_stored_map():
+    """ENVELOPE is what the stored stability map gives, and the coil limit lies below every measured limit."""
+    assert boundary(pd.read_csv(STORED_MAP / "stability_map.csv")) == stability.ENVELOPE
+    coils = pd.read_csv(STORED_MAP / "coil_map.csv")
+    largest = coils["largest_stable_timestep_s"]
+    bounded = coils[(largest > 0) & (largest < max(stability.MAP_TIMESTEPS_S))]
+    assert len(bounded) > 0
+    assert bounded["stable_number"].min() >= stability.COIL_TIMESTEP_NUMBER
 
 
 def test_every_preset_timestep_is_inside_the_measured_table():
@@ -92,32 +107,13 @@ def test_out_of_envelope_settings_are_named():
     assert warnings_for("accurate", ["gripper.filament.youngs_modulus_pa=1e7"]) == []
 
 
-def map_point(integrator, n_segments, modulus_pa, timestep_s):
-    """The stability map's probe configuration at one point."""
-    ref = stability.REFERENCE_FILAMENT
-    filament = dataclasses.replace(
-        ref,
-        youngs_modulus_pa=modulus_pa,
-        n_segments=n_segments,
-        curvature_calibration=ref.calibration * modulus_pa / ref.youngs_modulus_pa,
-    )
-    numerics = dataclasses.replace(stability.base_numerics(integrator), timestep_s=timestep_s)
-    return SceneConfig(
-        gripper=dataclasses.replace(stability.MAP_GRIPPER, filament=filament), numerics=numerics
-    )
-
-
 def test_table_boundary_remeasured():
     """Euler, 24 segments, E = 10 MPa: stable at the table's timestep, unstable at twice it."""
     limit = stability.max_stable_timestep_s("euler", 24, 10e6)
     assert 0 < limit < get_preset("fast").numerics.timestep_s
     for seed in (3, 4):
-        assert stability.probe(
-            map_point("euler", 24, 10e6, limit), seed=seed, duration_s=0.6
-        ).stable
-    assert not stability.probe(
-        map_point("euler", 24, 10e6, 2 * limit), seed=3, duration_s=0.6
-    ).stable
+        assert probe(probe_config("euler", 24, 10e6, limit), seed=seed).stable
+    assert not probe(probe_config("euler", 24, 10e6, 2 * limit), seed=3).stable
 
 
 def test_coil_limit_catches_a_tight_stiff_coil():
@@ -132,23 +128,23 @@ def test_coil_limit_catches_a_tight_stiff_coil():
         filament=fil, ring_diameters_m=(0.0,), ring_counts=(1,), pressure_pa=1.166e6
     )
     numerics = dataclasses.replace(stability.base_numerics("implicitfast"), timestep_s=8e-3)
-    config = SceneConfig(gripper=gripper, numerics=numerics)
+    config = ProbeConfig(gripper=gripper, numerics=numerics, duration_s=0.6)
     assert stability.max_stable_timestep_s("implicitfast", 26, 3.16e6) == 8e-3
     assert any("too long for the actuated coil" in w for w in stability.envelope_warnings(config))
-    assert not stability.probe(config, duration_s=0.6).stable
+    assert not probe(config).stable
     limit = stability.stable_timestep_s(config)
     assert limit < 2e-3
     safe = dataclasses.replace(config, numerics=dataclasses.replace(numerics, timestep_s=limit))
     assert stability.envelope_warnings(safe) == []
-    assert all(stability.probe(safe, duration_s=0.6, seed=s).stable for s in (0, 1))
+    assert all(probe(safe, seed=s).stable for s in (0, 1))
     # Without contact the same coil is unstable at 8 ms too: the limit holds for the rest shape.
     apart = dataclasses.replace(config, effects=fx.NO_CONTACT)
     assert stability.stable_timestep_s(apart) == limit
-    assert not all(stability.probe(apart, duration_s=0.6, seed=s).stable for s in (0, 1, 2))
+    assert not all(probe(apart, seed=s).stable for s in (0, 1, 2))
 
 
 def test_presets_use_the_numerics_the_map_was_measured_with():
-    """A preset whose solver settings change needs `scripts/stability_map.py` run again."""
+    """A preset whose solver settings change needs the stability map (`scripts/stability_map.py`) run again."""
     for name, preset in PRESETS.items():
         measured = stability.base_numerics(preset.numerics.integrator)
         same_step = dataclasses.replace(preset.numerics, timestep_s=measured.timestep_s)

@@ -17,21 +17,21 @@ from entangle_bench import stability
 from entangle_bench.filament import FilamentParams
 from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import get_preset
-from entangle_bench.scene import SceneConfig
-from tests.stability.cases import LIMITS, resolve_case, run_probe_case, run_trial_case
+from entangle_bench.suite.probe import ProbeConfig
 
 PRESETS = ["fast", "balanced", pytest.param("accurate", marks=pytest.mark.slow)]
 ALL_PRESETS = ["fast", "balanced", "accurate"]
 REFERENCE = FilamentParams()
 
 
-def assert_sound(run):
+def assert_sound(run, limits):
     """The watchdog never tripped and its worst values are inside the bounds."""
-    assert run.reason == "", run.describe()
+    stats = run.result.stats
+    assert run.result.stable and run.result.reason == "", run.describe()
     assert run.finite and not run.warnings, run.describe()
-    assert run.stats.max_penetration_m <= LIMITS.max_penetration_m, run.describe()
-    assert run.stats.max_speed_m_s <= LIMITS.max_speed_m_s, run.describe()
-    assert run.stats.min_energy_margin_j >= 0.0, run.describe()
+    assert stats.max_penetration_m <= limits.max_penetration_m, run.describe()
+    assert stats.max_speed_m_s <= limits.max_speed_m_s, run.describe()
+    assert stats.min_energy_margin_j >= 0.0, run.describe()
 
 
 def assert_envelope_honest(run):
@@ -51,7 +51,7 @@ FINE_SEGMENTS = 24
 
 
 @pytest.mark.parametrize("preset", PRESETS)
-def test_very_stiff_finely_segmented_filaments(preset):
+def test_very_stiff_finely_segmented_filaments(preset, resolve_case, run_trial_case, limits):
     """E = 10 MPa, finely segmented, same coil: the fastest bending waves of the suite.
 
     Outside the euler presets' envelope at their own timestep: they run at the envelope's 1 ms.
@@ -66,12 +66,12 @@ def test_very_stiff_finely_segmented_filaments(preset):
         ],
     )
     run = run_trial_case(config)
-    assert_sound(run)
+    assert_sound(run, limits)
     assert_envelope_honest(run)
 
 
 @pytest.mark.parametrize("preset", PRESETS)
-def test_very_soft_filaments(preset):
+def test_very_soft_filaments(preset, resolve_case, run_trial_case, limits):
     """E = 0.05 MPa (same coil): the filament hangs like a string, l / l_g = 35."""
     config = resolve_case(
         preset,
@@ -82,23 +82,23 @@ def test_very_soft_filaments(preset):
     )
     assert config.gripper.filament.length_m / config.gripper.filament.gravity_length_m > 30
     run = run_trial_case(config)
-    assert_sound(run)
+    assert_sound(run, limits)
     assert_envelope_honest(run)
 
 
 @pytest.mark.parametrize("preset", PRESETS)
-def test_heavy_object(preset):
+def test_heavy_object(preset, resolve_case, run_trial_case, limits):
     """An object of 50 times the gripper's mass (it stays down; the filaments strain on it)."""
     config = resolve_case(preset, [])
     mass = 50 * config.gripper.n_filaments * config.gripper.filament.mass_kg
     config = dataclasses.replace(config, object=dataclasses.replace(config.object, mass_kg=mass))
     run = run_trial_case(config)
-    assert_sound(run)
+    assert_sound(run, limits)
 
 
 @pytest.mark.parametrize("preset", ALL_PRESETS)
 @pytest.mark.parametrize("contact", ["none", pytest.param("self", marks=pytest.mark.slow)])
-def test_tightest_actuation_curvature(preset, contact):
+def test_tightest_actuation_curvature(preset, contact, run_probe_case, limits):
     """Coil radius 3 filament radii (the tightest the law is used for), 2 rad per segment.
 
     One filament in air (a 12-filament trial at 72 segments would take minutes): 23 turns of a
@@ -117,18 +117,18 @@ def test_tightest_actuation_curvature(preset, contact):
     effects = fx.NO_CONTACT
     if contact == "self":
         effects = dataclasses.replace(effects, filament_self_contact=True)
-    config = SceneConfig(gripper=gripper, effects=effects, numerics=get_preset(preset).numerics)
+    config = ProbeConfig(gripper=gripper, effects=effects, numerics=get_preset(preset).numerics)
     warnings = stability.envelope_warnings(config)
     assert not [w for w in warnings if "under-resolved" in w or "radii" in w], warnings
     result = run_probe_case(config)
     assert result.stable, (result.reason, result.time_s, result.stats)
-    assert result.stats.max_speed_m_s < LIMITS.max_speed_m_s
-    assert result.stats.max_penetration_m <= LIMITS.max_penetration_m
+    assert result.stats.max_speed_m_s < limits.max_speed_m_s
+    assert result.stats.max_penetration_m <= limits.max_penetration_m
     assert result.stats.min_energy_margin_j >= 0
 
 
 @pytest.mark.parametrize("preset", PRESETS)
-def test_dense_array_of_48_filaments(preset):
+def test_dense_array_of_48_filaments(preset, resolve_case, run_trial_case, limits):
     """48 filaments on three rings (24, 16, 8) inside the 50 mm circle, 6.5 mm apart."""
     config = resolve_case(preset, [])
     gripper = dataclasses.replace(
@@ -137,11 +137,11 @@ def test_dense_array_of_48_filaments(preset):
     config = dataclasses.replace(config, gripper=gripper)
     assert config.gripper.n_filaments == 48
     run = run_trial_case(config)
-    assert_sound(run)
+    assert_sound(run, limits)
 
 
 @pytest.mark.parametrize("preset", PRESETS)
-def test_filaments_starting_interpenetrated_with_the_object(preset):
+def test_filaments_starting_interpenetrated_with_the_object(preset, resolve_case, run_trial_case, limits):
     """The hub starts 80 mm lower: the straight filaments pass through the branches at t = 0."""
     config = resolve_case(preset, [])
 
@@ -149,28 +149,28 @@ def test_filaments_starting_interpenetrated_with_the_object(preset):
         physics.data.mocap_pos[0, 2] -= 0.08
 
     run = run_trial_case(config, prepare=sink)
-    assert_sound(run)
+    assert_sound(run, limits)
 
 
 @pytest.mark.parametrize("preset", PRESETS)
-def test_fast_lift(preset):
+def test_fast_lift(preset, resolve_case, run_trial_case, limits):
     """Lift at 1 m/s (20 times the default speed)."""
     config = resolve_case(preset, ["phases.lift_speed_m_s=1.0", "phases.lift_height_m=0.1"])
     run = run_trial_case(config)
-    assert_sound(run)
+    assert_sound(run, limits)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("preset", ALL_PRESETS)
-def test_sixty_second_hold(preset):
+def test_sixty_second_hold(preset, resolve_case, run_trial_case, limits):
     """A 60 s hold: slow energy drift or creeping penetration would show here."""
     config = resolve_case(preset, ["phases.hold_time_s=60"])
     run = run_trial_case(config)
-    assert_sound(run)
+    assert_sound(run, limits)
 
 
 @pytest.mark.parametrize("preset", ["fast", "balanced", "accurate"])
-def test_largest_timestep_the_preset_allows(preset):
+def test_largest_timestep_the_preset_allows(preset, resolve_case, run_trial_case, limits):
     """The envelope's largest timestep for the preset's own filament, in the contact-rich trial."""
     config = resolve_case(preset, [])
     largest = stability.stable_timestep_s(config)
@@ -180,4 +180,4 @@ def test_largest_timestep_the_preset_allows(preset):
     )
     assert not stability.envelope_warnings(config)
     run = run_trial_case(config)
-    assert_sound(run)
+    assert_sound(run, limits)

@@ -3,8 +3,8 @@
 Hypothesis draws a few filaments (1-3, 6-20 mm apart, every contact effect on), a segment count, a
 modulus, a coil radius and a timestep, each within the bounds `entangle_bench.stability` documents:
 a timestep at most the measured envelope's, a coil no tighter than 3 filament radii, resolved at
-most 2 rad per segment and reachable with at most 2 MPa. Each scene is one probe (pressure ramp and
-hold in air) under the watchdog.
+most 2 rad per segment and reachable with at most 2 MPa. Each scene is one probe (task `probe/curl_in_air`:
+pressure ramp and hold in air) through the runner, under the watchdog.
 """
 
 import dataclasses
@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 
 from entangle_bench import stability
 from entangle_bench.gripper import GripperParams
-from entangle_bench.scene import SceneConfig
+from entangle_bench.studies.stability_map import probe
+from entangle_bench.suite.probe import ProbeConfig
 
 REF = stability.REFERENCE_FILAMENT
 MAX_PRESSURE_PA = 2e6  # the largest pressure GripperParams accepts
@@ -42,7 +43,7 @@ def scenes(draw):
         filament=fil, ring_diameters_m=(diameter,), ring_counts=(count,), pressure_pa=pressure
     )
     numerics = stability.base_numerics(integrator)
-    config = SceneConfig(gripper=gripper, numerics=numerics)
+    config = ProbeConfig(gripper=gripper, numerics=numerics, duration_s=0.5)
     limit = stability.stable_timestep_s(config)
     dt = limit * draw(st.floats(0.5, 1.0))
     config = dataclasses.replace(config, numerics=dataclasses.replace(numerics, timestep_s=dt))
@@ -56,5 +57,5 @@ def scenes(draw):
 def test_scenes_inside_the_envelope_are_stable(scene):
     config, seed = scene
     assert stability.envelope_warnings(config) == []
-    result = stability.probe(config, duration_s=0.5, seed=seed)
+    result = probe(config, seed=seed)
     assert result.stable, (result.reason, result.time_s, config)

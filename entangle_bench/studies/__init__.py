@@ -1,0 +1,6 @@
+"""Studies of the harness itself, as library modules behind thin scripts in `scripts/`.
+
+`accuracy_time`: what each numerical setting costs and how much accuracy it buys (rods and trials).
+`stability_map`: the stable region of modulus x timestep x segments per integrator, and tight coils.
+Both build and simulate through the library: rods through `rods`, trials and probes through `runner`.
+"""
