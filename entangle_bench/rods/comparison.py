@@ -18,6 +18,7 @@ from typing import Any
 
 from entangle_bench.config import check_range
 from entangle_bench.errors import FileFormatError, ParameterError
+from entangle_bench.presets import DEFAULT_PRESET
 from entangle_bench.rods.analytic import reference_centerline
 from entangle_bench.rods.case import RodCase, RodResult, centerline_error
 from entangle_bench.rods.elastica_engine import solve_elastica
@@ -69,7 +70,7 @@ def cached_result(case: RodCase, engine: str, n_elements: int, cache_dir: Path |
 
 def compare_case(
     case: RodCase,
-    preset: str = "balanced",
+    preset: str = DEFAULT_PRESET,
     elements: tuple[int, int] = (50, 100),
     representation: str = "ball",
     n_segments: int | None = None,

@@ -4,31 +4,66 @@
 `GripperTask` is the `BenchTask` whose action is hub velocity (m/s, 3) plus the pressure as a fraction of the
 operating pressure: it draws the filaments' bending planes and joint perturbations from the task's seeded
 generator, switches the rest shape when the pressure changes, and takes entanglement snapshots (ACN, local
-fields, contacts). Its config is any dataclass with a `gripper` (`GripperParams`) field.
+fields, contacts). Its configuration derives from `GripperTaskConfig` (gripper, effects, contact, numerics,
+perturbation, control period), so presets and `--set` paths work the same for every gripper task.
 """
 
 from __future__ import annotations
 
 import collections
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
 import mujoco
 import numpy as np
 from dm_control import mujoco as dm_mujoco
 from dm_env import specs
 
+from entangle_bench import effects as fx
+from entangle_bench.config import check_range
 from entangle_bench.geoms import KINDS
-from entangle_bench.gripper import bending_angles
+from entangle_bench.gripper import GripperParams, bending_angles
 from entangle_bench.metrics.acn import acn_total
 from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.local_fields import local_fields
-from entangle_bench.scene import Scene
-from entangle_bench.suite.base import BenchTask, C, Snapshot
+from entangle_bench.presets import Numerics
+from entangle_bench.scene import ContactParams, Scene, SceneConfig
+from entangle_bench.suite.base import BenchTask, Snapshot
 
 MAX_HUB_SPEED_M_S = 2.0
 
 #: Diameter of the spheres of the local ACN and filament-count fields in snapshots, m.
 LOCAL_ACN_DIAMETER_M = 0.02
+
+
+@dataclass(frozen=True)
+class GripperTaskConfig:
+    """What every gripper task's configuration holds: the gripper scene and the control period (SI units)."""
+
+    gripper: GripperParams = field(default_factory=GripperParams)
+    effects: fx.Effects = field(default_factory=fx.Effects)
+    contact: ContactParams = field(default_factory=ContactParams)
+    numerics: Numerics = field(default_factory=Numerics)
+    perturbation_rad: float = 0.01
+    """Standard deviation of the random initial joint rotations of the filaments, rad."""
+    control_timestep_s: float = 0.01
+    """Target control (and watchdog) period, s; rounded to a whole number of physics steps."""
+
+    def __post_init__(self) -> None:
+        check_range("perturbation_rad", self.perturbation_rad, 0.0, 0.5)
+        check_range("control_timestep_s", self.control_timestep_s, 1e-4, 0.1)
+
+    @property
+    def n_sub_steps(self) -> int:
+        """Physics steps per control step: the control timestep rounded to whole physics steps."""
+        return max(1, round(self.control_timestep_s / self.numerics.timestep_s))
+
+    def scene_config(self) -> SceneConfig:
+        """The scene: the gripper alone (task families with an object add it)."""
+        return SceneConfig(gripper=self.gripper, effects=self.effects, contact=self.contact, numerics=self.numerics)
+
+
+G = TypeVar("G", bound=GripperTaskConfig)
 
 
 class ScenePhysics(dm_mujoco.Physics):
@@ -81,10 +116,10 @@ class ScenePhysics(dm_mujoco.Physics):
         return self.scene.geoms.count_kinds(data.contact.geom[: data.ncon])
 
 
-class GripperTask(BenchTask[C]):
+class GripperTask(BenchTask[G]):
     """A task driving the filament gripper: action hub velocity (m/s, 3) and pressure fraction (0..1)."""
 
-    def __init__(self, config: C, seed: int):
+    def __init__(self, config: G, seed: int):
         super().__init__(config, seed)
         self.angles = np.zeros(config.gripper.n_filaments)
         self._pressure_fraction = 0.0

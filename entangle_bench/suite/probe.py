@@ -16,55 +16,35 @@ from dataclasses import dataclass, field
 import numpy as np
 from dm_control.rl import control
 
-from entangle_bench import effects as fx
 from entangle_bench.config import check_range
 from entangle_bench.gripper import GripperParams
-from entangle_bench.presets import Numerics
-from entangle_bench.scene import ContactParams, SceneConfig, build_scene
+from entangle_bench.scene import build_scene
 from entangle_bench.stability import MAP_GRIPPER
 from entangle_bench.suite.base import Outcome, register_task
-from entangle_bench.suite.gripper_task import GripperTask, ScenePhysics
+from entangle_bench.suite.gripper_task import GripperTask, GripperTaskConfig, ScenePhysics
 from entangle_bench.watchdog import WatchdogLimits
 
 PHASES = ("ramp", "hold", "done")
 
 
 @dataclass(frozen=True)
-class ProbeConfig:
+class ProbeConfig(GripperTaskConfig):
     """A gripper hanging in air (no object) and its pressure ramp (SI units)."""
 
     gripper: GripperParams = field(default_factory=lambda: MAP_GRIPPER)
-    effects: fx.Effects = field(default_factory=fx.Effects)
-    contact: ContactParams = field(default_factory=ContactParams)
-    numerics: Numerics = field(default_factory=Numerics)
+    perturbation_rad: float = 0.05
     hub_height_m: float = 0.5
     """Height of the fixed hub, m."""
     ramp_time_s: float = 0.3
     """Pressure ramp from 0 to the operating pressure, s (0: full pressure at once)."""
     duration_s: float = 1.0
     """Simulated time of the probe, s."""
-    perturbation_rad: float = 0.05
-    """Standard deviation of the random initial joint rotations, rad."""
-    control_timestep_s: float = 0.01
-    """Target control (and watchdog) period, s; rounded to a whole number of physics steps."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         check_range("hub_height_m", self.hub_height_m, 0.0, 10.0, low_open=True)
         check_range("ramp_time_s", self.ramp_time_s, 0.0, 60.0)
         check_range("duration_s", self.duration_s, 0.0, 600.0, low_open=True)
-        check_range("perturbation_rad", self.perturbation_rad, 0.0, 0.5)
-        check_range("control_timestep_s", self.control_timestep_s, 1e-4, 0.1)
-
-    @property
-    def n_sub_steps(self) -> int:
-        """Physics steps per control step: the control timestep rounded to whole physics steps."""
-        return max(1, round(self.control_timestep_s / self.numerics.timestep_s))
-
-    def scene_config(self) -> SceneConfig:
-        """The scene: the gripper alone."""
-        return SceneConfig(
-            gripper=self.gripper, effects=self.effects, contact=self.contact, numerics=self.numerics
-        )
 
 
 class Probe(GripperTask[ProbeConfig]):

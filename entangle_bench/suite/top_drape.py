@@ -20,14 +20,11 @@ import mujoco
 import numpy as np
 from dm_control.rl import control
 
-from entangle_bench import effects as fx
 from entangle_bench import objects
 from entangle_bench.config import check_range
-from entangle_bench.gripper import GripperParams
-from entangle_bench.presets import Numerics
-from entangle_bench.scene import ContactParams, SceneConfig, build_scene
+from entangle_bench.scene import SceneConfig, build_scene
 from entangle_bench.suite.base import Outcome, register_task
-from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, GripperTask, ScenePhysics
+from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, GripperTask, GripperTaskConfig, ScenePhysics
 
 PHASES = ("approach", "actuate", "settle", "lift", "hold", "release", "done")
 
@@ -63,43 +60,29 @@ class Phases:
 
 
 @dataclass(frozen=True)
-class TopDrapeConfig:
-    """Everything that defines one top-drape trial except the seed."""
+class TopDrapeConfig(GripperTaskConfig):
+    """Everything that defines one top-drape trial except the seed: the gripper scene plus object and sequence."""
 
     object_name: str = "eight_branch_tree"
     object: Any = None
     """The object's parameter dataclass (None: the object's defaults)."""
-    gripper: GripperParams = field(default_factory=GripperParams)
-    effects: fx.Effects = field(default_factory=fx.Effects)
-    contact: ContactParams = field(default_factory=ContactParams)
-    numerics: Numerics = field(default_factory=Numerics)
     phases: Phases = field(default_factory=Phases)
     offset_m: float = 0.0
     """Centering offset: horizontal distance between the gripper axis and the object axis, m."""
     offset_angle_rad: float | None = None
     """Direction of the offset; None draws it uniformly from the trial seed."""
-    perturbation_rad: float = 0.01
-    """Standard deviation of the random initial joint rotations of the filaments, rad."""
     success_margin_m: float = 0.02
     """Success: the object's lowest point stays at least this far above the ground for the whole hold, m."""
-    control_timestep_s: float = 0.01
-    """Target control period, s; rounded to a whole number of physics steps."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         check_range("offset_m", self.offset_m, 0.0, 1.0)
         if self.offset_angle_rad is not None:
             check_range("offset_angle_rad", self.offset_angle_rad, -2 * math.pi, 2 * math.pi)
-        check_range("perturbation_rad", self.perturbation_rad, 0.0, 0.5)
         check_range("success_margin_m", self.success_margin_m, 0.0, 1.0, low_open=True)
-        check_range("control_timestep_s", self.control_timestep_s, 1e-4, 0.1)
-
-    @property
-    def n_sub_steps(self) -> int:
-        """Physics steps per control step: the control timestep rounded to whole physics steps."""
-        return max(1, round(self.control_timestep_s / self.numerics.timestep_s))
 
     def scene_config(self) -> SceneConfig:
-        """The scene part of the configuration."""
+        """The scene: gripper, object and ground."""
         return SceneConfig(
             gripper=self.gripper,
             object_name=self.object_name,
