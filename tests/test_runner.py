@@ -199,3 +199,34 @@ def test_unstable_trial_calls_finish_with_the_unstable_row(short_spec, nan_at):
     assert row["outcome"] == "unstable"
     assert counter.finished == [("unstable", True)]
     assert counter.steps == round(row["unstable_time_s"] / spec.config.control_timestep_s) - 1
+
+
+def test_task_series_are_logged_every_control_step_and_saved(tmp_path, monkeypatch):
+    from entangle_bench.suite.probe import Probe, ProbeConfig
+
+    monkeypatch.setattr(Probe, "series_point", lambda self, physics: {"pressure_pa": self.pressure_pa})
+    config = ProbeConfig(duration_s=0.2, ramp_time_s=0.1)
+    result = simulate("probe/curl_in_air", config, 0, state_dir=tmp_path)
+    series = result.series
+    assert len(series["time_s"]) == 20
+    np.testing.assert_allclose(series["time_s"], 0.01 * np.arange(1, 21), atol=1e-9)
+    pressure = config.gripper.pressure_pa
+    # The pressure of each step is the one commanded at its start: t / ramp, full from 0.1 s on.
+    np.testing.assert_allclose(series["pressure_pa"], pressure * np.minimum(1.0, 0.01 * np.arange(20) / 0.1))
+    saved = np.load(next(tmp_path.glob("*_series.npz")))
+    assert set(saved.files) == {"time_s", "pressure_pa"}
+    np.testing.assert_array_equal(saved["pressure_pa"], series["pressure_pa"])
+
+
+def test_a_task_must_decide_and_may_decide_only_once(monkeypatch):
+    from entangle_bench.errors import OutcomeError
+    from entangle_bench.suite import Outcome
+    from entangle_bench.suite.probe import Probe, ProbeConfig
+
+    config = ProbeConfig(duration_s=0.05)
+    env = simulate("probe/curl_in_air", config, 0).env
+    with pytest.raises(OutcomeError, match="twice"):
+        env.task.decide(Outcome("failure", "again"))
+    monkeypatch.setattr(Probe, "after_step", lambda self, physics: None)
+    with pytest.raises(OutcomeError, match="without deciding"):
+        simulate("probe/curl_in_air", config, 0)
