@@ -15,6 +15,7 @@ from entangle_bench.presets import PRESETS
 from entangle_bench.results import TrialLog, atomic_write_csv
 from entangle_bench.runner import make_executor, run_trials
 from entangle_bench.stability import envelope_warnings
+from entangle_bench.suite.gripper_task import GripperTaskConfig
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -61,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path("results") / suite.name
     log = TrialLog(out / "trials.jsonl")
     print(f"{suite.name}: {len(specs)} trials -> {out}")
-    for text in dict.fromkeys(w for spec in specs for w in envelope_warnings(spec.config)):
+    gripper_configs = [spec.config for spec in specs if isinstance(spec.config, GripperTaskConfig)]
+    for text in dict.fromkeys(w for config in gripper_configs for w in envelope_warnings(config)):
         print(f"warning: {text}")
     run_trials(
         specs, log, make_executor(args.workers), args.retry_unstable, not args.no_progress, args.record
