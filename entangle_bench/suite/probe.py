@@ -9,7 +9,6 @@ configuration is the map's array (`stability.MAP_GRIPPER`: three filaments curli
 
 from __future__ import annotations
 
-import collections
 import math
 from dataclasses import dataclass, field
 
@@ -96,10 +95,6 @@ class Probe(GripperTask[ProbeConfig]):
         fil = gripper.filament
         lift = gripper.n_filaments * fil.mass_kg * 9.81 * fil.length_m
         return WatchdogLimits(max_speed_m_s=10.0, energy_slack_j=0.1 * (gripper.actuation_energy_j + lift))
-
-    def get_observation(self, physics: ScenePhysics) -> collections.OrderedDict:
-        """The gripper's observation: centerlines, hub position, contact counts, pressure."""
-        return self.gripper_observation(physics)
 
 
 def make_environment(config: ProbeConfig, seed: int) -> control.Environment:
