@@ -68,7 +68,7 @@ class TrialSpec:
         return trial_id(self.task, self.config, self.seed)
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class TrialResult:
     """What `simulate` returns: the row, and the final environment, watchdog and per-step series."""
 

@@ -1,6 +1,8 @@
 """Object library: target objects by name (trees, primitives, Dex-Net meshes) and how to add one
-to a MuJoCo scene. See registry.py for the body-frame convention."""
+to a MuJoCo scene. Objects register in `catalog.OBJECTS` next to their builders; see registry.py for the
+body-frame convention."""
 
+from entangle_bench.objects.catalog import OBJECTS, ObjectDef, register_object
 from entangle_bench.objects.registry import (
     BuiltObject,
     ObjectInfo,
@@ -15,7 +17,9 @@ from entangle_bench.objects.registry import (
 )
 
 __all__ = [
+    "OBJECTS",
     "BuiltObject",
+    "ObjectDef",
     "ObjectInfo",
     "add_object",
     "build",
@@ -25,4 +29,5 @@ __all__ = [
     "is_mesh_object",
     "names",
     "object_info",
+    "register_object",
 ]
