@@ -21,7 +21,7 @@ import numpy as np
 
 from entangle_bench.effects import NO_CONTACT, apply_effects
 from entangle_bench.errors import ParameterError
-from entangle_bench.filament import FilamentParams, add_filament, rest_quaternions
+from entangle_bench.filament import FilamentParams, add_filament, rest_quaternions, rest_twist_axes
 from entangle_bench.presets import Numerics, get_preset
 from entangle_bench.rods.case import RodCase, RodResult, resample_centerline
 from entangle_bench.scene import step_until_rest
@@ -81,6 +81,8 @@ def build_rod(
     )
     apply_effects(spec, NO_CONTACT, {}, [list(handle.body_names)], np.zeros((1, 2)), case.length)
     model = spec.compile()
+    if handle.twist_names:
+        model.jnt_axis[handle.twist_ids(model)] = rest_twist_axes(n_segments, case.length / n_segments, case.darboux)
     return model, handle.qpos_addresses(model), list(handle.body_names)
 
 
