@@ -63,6 +63,9 @@ class FilamentParams:
     """Kelvin-Voigt relaxation time: each joint's damping is its stiffness times this, N m s/rad."""
     curvature_calibration: float = float("nan")
     """Dimensionless c of the actuation law; NaN means the calibrated default (see `default_calibration`)."""
+    twist_hinge: bool = True
+    """Give each segment a twist hinge in series with its ball joint so that the twist stiffness is G J, not
+    the ball spring's isotropic E I (see `add_filament`); False is the plain ball chain."""
 
     def __post_init__(self) -> None:
         check_range("filament.length_m", self.length_m, 0.0, None, low_open=True)
@@ -84,6 +87,11 @@ class FilamentParams:
         check_range("filament.damping_time_s", self.damping_time_s, 0.0, 10.0)
         if not math.isnan(self.curvature_calibration):
             check_range("filament.curvature_calibration", self.curvature_calibration, 0.0, None)
+        if self.twist_hinge and self.torsional_stiffness_nm2 > self.bending_stiffness_nm2 * (1 + 1e-9):
+            raise ParameterError(
+                f"filament.twist_hinge needs G J <= E I (poisson_ratio >= 0 for a round tube); got "
+                f"G J = {self.torsional_stiffness_nm2:.3g} N m^2, E I = {self.bending_stiffness_nm2:.3g} N m^2"
+            )
 
     @property
     def segment_length_m(self) -> float:
@@ -146,6 +154,18 @@ class FilamentParams:
         return self.shear_modulus_pa * sum(self.second_moments_m4)
 
     @property
+    def twist_hinge_stiffness_nm(self) -> float:
+        """Stiffness of an interior segment's series twist hinge, N m/rad: 1 / (ds (1/GJ - 1/EI)).
+
+        In series with the ball spring's twist stiffness EI/ds it gives the rod's GJ/ds; infinite (no hinge
+        needed) when GJ >= EI, e.g. a solid round rod at poisson_ratio 0.
+        """
+        gj, ei = self.torsional_stiffness_nm2, self.bending_stiffness_nm2
+        if gj >= ei * (1 - 1e-9):
+            return math.inf
+        return 1.0 / (self.segment_length_m * (1.0 / gj - 1.0 / ei))
+
+    @property
     def gravity_length_m(self) -> float:
         """Elasto-gravity length l_g = (EI / (rho A g))^(1/3), m: filaments longer than this droop."""
         return (self.bending_stiffness_nm2 / (self.linear_density_kg_m * 9.81)) ** (1 / 3)
@@ -205,11 +225,18 @@ class FilamentHandle:
     body_names: tuple[str, ...]
     geom_names: tuple[str, ...]
     joint_names: tuple[str, ...]
+    """Ball joints, root to tip (their qpos_spring holds the rest shape)."""
+    twist_names: tuple[str, ...] = ()
+    """Series twist hinges, root to tip (empty for a plain ball chain)."""
 
     def qpos_addresses(self, model: mujoco.MjModel) -> np.ndarray:
         """(n, 4) indices into qpos / qpos_spring of each ball joint's quaternion."""
         adr = [model.joint(name).qposadr[0] for name in self.joint_names]
         return np.asarray(adr)[:, None] + np.arange(4)[None, :]
+
+    def twist_ids(self, model: mujoco.MjModel) -> np.ndarray:
+        """Joint ids of the series twist hinges, root to tip (empty without hinges)."""
+        return np.array([model.joint(name).id for name in self.twist_names], dtype=int)
 
     def body_ids(self, model: mujoco.MjModel) -> np.ndarray:
         """Body ids from root to tip."""
@@ -231,6 +258,11 @@ def joint_name(index: int, segment: int) -> str:
     return f"f{index:02d}_j{segment:03d}"
 
 
+def twist_name(index: int, segment: int) -> str:
+    """Name of the twist hinge at the root of segment `segment` of filament `index`."""
+    return f"f{index:02d}_t{segment:03d}"
+
+
 def add_filament(
     parent: mujoco.MjsBody,
     params: FilamentParams,
@@ -247,6 +279,12 @@ def add_filament(
     any static equilibrium; note that MuJoCo applies a ball joint's armature to all three of its rotational
     DOFs, so bending rotations get the same (small) added inertia, which slows the fastest bending dynamics
     too (measured in the accuracy-time study: swing error 0.30 L at x1 vs 0.43 L at x1000).
+
+    With `params.twist_hinge`, each body gets a hinge before its ball joint whose axis is the rest
+    mid-tangent between the two segments (x while straight; `rest_twist_axes` gives it for a curved rest
+    shape, and actuation rewrites `model.jnt_axis`). The hinge spring is in series with the ball spring's
+    twist: together they give twist stiffness GJ/ds while bending keeps EI/ds, second-order accurate like
+    the rest of the chain. The hinge gets the ball joint's armature, at least the segment's spin inertia.
     """
     check_range("twist_armature_scale", twist_armature_scale, 1.0, 1e6)
     n, ds = params.n_segments, params.segment_length_m
@@ -255,7 +293,8 @@ def add_filament(
     i_axial = 0.5 * m * (r_out**2 + r_in**2)
     i_trans = m * (ds**2 / 12.0 + (r_out**2 + r_in**2) / 4.0)
     k_bend = params.bending_stiffness_nm2 / ds
-    bodies, geoms, joints = [], [], []
+    armature = (twist_armature_scale - 1.0) * i_axial
+    bodies, geoms, joints, twists = [], [], [], []
     body = parent
     for j in range(n):
         body = body.add_body(
@@ -267,13 +306,26 @@ def add_filament(
             inertia=(i_axial, i_trans, i_trans),
             explicitinertial=True,
         )
+        if params.twist_hinge and math.isfinite(params.twist_hinge_stiffness_nm):
+            # MuJoCo allows no rotation after a ball joint in one body, so the hinge comes first; its axis is
+            # set to the rest mid-tangent whenever the rest shape changes (`rest_twist_axes`).
+            k_twist = (2.0 if j == 0 else 1.0) * params.twist_hinge_stiffness_nm
+            body.add_joint(
+                name=twist_name(index, j),
+                type=mujoco.mjtJoint.mjJNT_HINGE,
+                axis=(1.0, 0.0, 0.0),
+                stiffness=k_twist,
+                damping=k_twist * params.damping_time_s,
+                armature=max(armature, i_axial),
+            )
+            twists.append(twist_name(index, j))
         stiffness = 2.0 * k_bend if j == 0 else k_bend
         body.add_joint(
             name=joint_name(index, j),
             type=mujoco.mjtJoint.mjJNT_BALL,
             stiffness=stiffness,
             damping=stiffness * params.damping_time_s,
-            armature=(twist_armature_scale - 1.0) * i_axial,
+            armature=armature,
         )
         body.add_geom(
             name=geom_name(index, j),
@@ -286,7 +338,7 @@ def add_filament(
         bodies.append(body_name(index, j))
         geoms.append(geom_name(index, j))
         joints.append(joint_name(index, j))
-    return FilamentHandle(index, tuple(bodies), tuple(geoms), tuple(joints))
+    return FilamentHandle(index, tuple(bodies), tuple(geoms), tuple(joints), tuple(twists))
 
 
 def rest_quaternions(n_segments: int, ds: float, darboux: np.ndarray) -> np.ndarray:
@@ -297,4 +349,17 @@ def rest_quaternions(n_segments: int, ds: float, darboux: np.ndarray) -> np.ndar
     out = np.empty((n_segments, 4))
     out[0] = rest_rotation_quat(darboux, ds / 2)
     out[1:] = rest_rotation_quat(darboux, ds)
+    return out
+
+
+def rest_twist_axes(n_segments: int, ds: float, darboux: np.ndarray) -> np.ndarray:
+    """(n, 3) twist-hinge axes in each parent frame: x turned by half the joint's rest rotation (mid-tangent).
+
+    The clamp joint carries half a rotation (`rest_quaternions`), so its axis is turned by a quarter.
+    """
+    out = np.empty((n_segments, 3))
+    for j, portion in ((0, 0.25), (1, 0.5)):
+        quat = rest_rotation_quat(darboux, portion * ds)
+        mujoco.mju_rotVecQuat(out[j], np.array([1.0, 0.0, 0.0]), quat)
+    out[2:] = out[1]
     return out

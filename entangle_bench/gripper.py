@@ -17,7 +17,13 @@ import numpy as np
 
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
-from entangle_bench.filament import FilamentHandle, FilamentParams, add_filament, rest_quaternions
+from entangle_bench.filament import (
+    FilamentHandle,
+    FilamentParams,
+    add_filament,
+    rest_quaternions,
+    rest_twist_axes,
+)
 
 BendingPlaneMode = Literal["random", "radial_out", "radial_in", "tangential", "fixed"]
 
@@ -162,11 +168,13 @@ class Gripper:
     hub_name: str = "hub"
     _spring_adr: np.ndarray | None = None
     _body_ids: np.ndarray | None = None
+    _twist_ids: np.ndarray | None = None
 
     def bind(self, model: mujoco.MjModel) -> None:
-        """Resolve qpos_spring addresses and segment body ids in a compiled model."""
+        """Resolve qpos_spring addresses, twist-hinge ids and segment body ids in a compiled model."""
         self._spring_adr = np.stack([f.qpos_addresses(model) for f in self.filaments])
         self._body_ids = np.stack([f.body_ids(model) for f in self.filaments])
+        self._twist_ids = np.stack([f.twist_ids(model) for f in self.filaments])
 
     @property
     def spring_addresses(self) -> np.ndarray:
@@ -186,19 +194,31 @@ class Gripper:
         out[:, -1] = data.xpos[ids[:, -1]] + ds * data.xmat[ids[:, -1]].reshape(-1, 3, 3)[:, :, 0]
         return out
 
+    def darboux(self, curvature_per_m: float, angles_rad: np.ndarray) -> np.ndarray:
+        """(F, 3) rest Darboux vectors (tau, k1, k2), 1/m: curvature kappa toward the given world azimuths."""
+        psi = np.asarray(angles_rad, dtype=float)
+        return curvature_per_m * np.stack([np.zeros_like(psi), np.sin(psi), np.cos(psi)], axis=1)
+
     def rest_pose(self, curvature_per_m: float, angles_rad: np.ndarray) -> np.ndarray:
         """(F, n, 4) spring reference quaternions for curvature kappa toward the given world azimuths."""
         fil = self.params.filament
-        out = np.empty((len(self.filaments), fil.n_segments, 4))
-        for i, psi in enumerate(angles_rad):
-            darboux = np.array([0.0, math.sin(psi), math.cos(psi)]) * curvature_per_m
-            out[i] = rest_quaternions(fil.n_segments, fil.segment_length_m, darboux)
-        return out
+        return np.stack(
+            [rest_quaternions(fil.n_segments, fil.segment_length_m, w)
+             for w in self.darboux(curvature_per_m, angles_rad)]
+        )
 
     def set_pressure(self, model: mujoco.MjModel, pressure_pa: float, angles_rad: np.ndarray) -> float:
-        """Write the rest pose for `pressure_pa` into model.qpos_spring; return the curvature, 1/m."""
-        kappa = self.params.filament.curvature_per_m(pressure_pa)
-        model.qpos_spring[self.spring_addresses] = self.rest_pose(kappa, angles_rad)
+        """Write the rest shape for `pressure_pa` (qpos_spring, twist-hinge axes) into the model; return kappa, 1/m."""
+        fil = self.params.filament
+        kappa = fil.curvature_per_m(pressure_pa)
+        darboux = self.darboux(kappa, angles_rad)
+        model.qpos_spring[self.spring_addresses] = np.stack(
+            [rest_quaternions(fil.n_segments, fil.segment_length_m, w) for w in darboux]
+        )
+        if self._twist_ids is not None and self._twist_ids.size:
+            model.jnt_axis[self._twist_ids] = np.stack(
+                [rest_twist_axes(fil.n_segments, fil.segment_length_m, w) for w in darboux]
+            )
         return kappa
 
 

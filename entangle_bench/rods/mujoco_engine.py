@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 
 from entangle_bench.effects import NO_CONTACT, apply_effects
-from entangle_bench.filament import FilamentParams, add_filament
+from entangle_bench.filament import FilamentParams, add_filament, rest_twist_axes
 from entangle_bench.presets import Numerics
 from entangle_bench.rods.case import RodCase
 from entangle_bench.scene import step_until_rest
@@ -78,6 +78,8 @@ def build_rod(
     )
     apply_effects(spec, NO_CONTACT, {}, [list(handle.body_names)], np.zeros((1, 2)), case.length)
     model = spec.compile()
+    if handle.twist_names:
+        model.jnt_axis[handle.twist_ids(model)] = rest_twist_axes(n_segments, case.length / n_segments, case.darboux)
     return model, handle.qpos_addresses(model), list(handle.body_names)
 
 
