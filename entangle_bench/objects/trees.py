@@ -25,13 +25,18 @@ def _direction(azimuth_rad: float, elevation_rad: float) -> np.ndarray:
 
 def _trunk_and_base(trunk_height_m: float, trunk_radius_m: float, base_radius_m: float,
                     base_thickness_m: float) -> tuple[list[Part], float]:
-    """Return the base disc (if any) and trunk cylinder, and the z (m) where the trunk starts."""
+    """Return the base disc (if any) and trunk cylinder, and the z (m) where the trunk rises from the base.
+
+    The trunk cylinder starts halfway inside the base disc rather than on its top face: two flush faces of
+    one rigid body form a zero-width pocket in which a filament can be squeezed between them, an artificial
+    clamp (measured: +4.7 W on one face, -4.5 W on the other). Overlapping parts count once in the mass.
+    """
     parts: list[Part] = []
     z0 = 0.0
     if base_radius_m > 0:
         parts.append(Cylinder("base", (0.0, 0.0, 0.0), (0.0, 0.0, base_thickness_m), base_radius_m))
         z0 = base_thickness_m
-    parts.append(Cylinder("trunk", (0.0, 0.0, z0), (0.0, 0.0, z0 + trunk_height_m), trunk_radius_m))
+    parts.append(Cylinder("trunk", (0.0, 0.0, z0 / 2), (0.0, 0.0, z0 + trunk_height_m), trunk_radius_m))
     return parts, z0
 
 
