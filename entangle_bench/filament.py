@@ -63,7 +63,7 @@ class FilamentParams:
     """Kelvin-Voigt relaxation time: each joint's damping is its stiffness times this, N m s/rad."""
     curvature_calibration: float = float("nan")
     """Dimensionless c of the actuation law; NaN means the calibrated default (see `default_calibration`)."""
-    twist_hinge: bool = True
+    twist_hinge: bool = False
     """Give each segment a twist hinge in series with its ball joint so that the twist stiffness is G J, not
     the ball spring's isotropic E I (see `add_filament`); False is the plain ball chain."""
 
