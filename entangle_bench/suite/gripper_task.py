@@ -132,15 +132,8 @@ class GripperTask(BenchTask[G]):
         self._pressure_fraction = 0.0
 
     def perturb_joints(self, physics: ScenePhysics, std_rad: float) -> None:
-        """Rotate every filament joint by a random rotation vector (normal, `std_rad` per axis) from the seed."""
-        data = physics.data.ptr
-        adr = physics.scene.gripper.spring_addresses.reshape(-1, 4)
-        rotvec = self.rng.normal(0.0, std_rad, size=(len(adr), 3))
-        quat = np.empty(4)
-        for row, vec in zip(adr, rotvec):
-            angle = float(np.linalg.norm(vec))
-            mujoco.mju_axisAngle2Quat(quat, vec / (angle + 1e-300), angle)
-            data.qpos[row] = quat  # `row` is an index array: data.qpos[row] on the right would be a copy
+        """Rotate every filament joint at random (normal, `std_rad` per axis) from the seed."""
+        physics.scene.gripper.joints.perturb(physics.data.ptr, self.rng, std_rad)
 
     def action_spec(self, physics: ScenePhysics) -> specs.BoundedArray:
         """Hub velocity (m/s, 3) and pressure fraction (0..1)."""
