@@ -13,15 +13,15 @@ from __future__ import annotations
 import collections
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from dataclasses import astuple, dataclass, field
+from typing import Any, ClassVar, Self, TypeVar
 
 import mujoco
 from dm_control.rl import control
 
 from entangle_bench import objects
 from entangle_bench.config import check_choice, check_range
-from entangle_bench.scene import SceneConfig
+from entangle_bench.scene import SceneConfig, build_scene
 from entangle_bench.suite.base import register_task
 from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, GripperTask, GripperTaskConfig, ScenePhysics
 
@@ -83,7 +83,11 @@ class DrapeConfig(GripperTaskConfig):
 
 @dataclass(frozen=True)
 class DrapeSchedule:
-    """Phase boundaries of the drape (s) and the hub heights at its start and end (m)."""
+    """Phase boundaries (s) and the hub heights at the start and the end of the approach (m).
+
+    Families add one time field per phase that follows the settle (`AFTER_SETTLE`, each ending at its field, in
+    order) and compute them in `after_settle`.
+    """
 
     hub_start_z: float
     hub_drape_z: float
@@ -92,19 +96,27 @@ class DrapeSchedule:
     t_settled: float
     """End of the settle: where each family's own sequence begins, s."""
 
-    @staticmethod
-    def drape_times(config: DrapeConfig, object_height_m: float) -> tuple[float, float, float, float, float]:
-        """(hub_start_z, hub_drape_z, t_actuate, t_settle, t_settled) for an object of the given height (m, s)."""
+    AFTER_SETTLE: ClassVar[tuple[str, ...]] = ()
+
+    @classmethod
+    def from_config(cls, config: DrapeConfig, object_height_m: float) -> Self:
+        """Phase times for an object of the given height (m)."""
         ph, length = config.phases, config.gripper.filament.length_m
         start = object_height_m + length + ph.start_clearance_m
         drape = object_height_m + length - ph.drape_depth_m
         t_actuate = (start - drape) / ph.approach_speed_m_s
         t_settle = t_actuate + ph.ramp_time_s
-        return start, drape, t_actuate, t_settle, t_settle + ph.settle_time_s
+        t_settled = t_settle + ph.settle_time_s
+        return cls(start, drape, t_actuate, t_settle, t_settled, *cls.after_settle(config, t_settled))
+
+    @classmethod
+    def after_settle(cls, config: Any, t_settled: float) -> tuple[float, ...]:
+        """End times of the AFTER_SETTLE phases, s (none for the drape alone)."""
+        return ()
 
     def boundaries(self) -> tuple[tuple[str, float], ...]:
-        """(phase, end time in s) in order; families append theirs."""
-        return (("approach", self.t_actuate), ("actuate", self.t_settle), ("settle", self.t_settled))
+        """(phase, end time in s) in order."""
+        return tuple(zip((*DRAPE_PHASES, *self.AFTER_SETTLE), astuple(self)[2:]))
 
     def phase(self, t: float) -> str:
         """Name of the phase at time t (s); 'done' after the last boundary."""
@@ -120,7 +132,28 @@ DC = TypeVar("DC", bound=DrapeConfig)
 class DrapeTask(GripperTask[DC]):
     """A gripper task that drapes the filaments over the object, actuates and settles before its own sequence."""
 
-    schedule: DrapeSchedule
+    #: The family's schedule (phase times from the config and the object's height); PHASES follow from it.
+    SCHEDULE: ClassVar[type[DrapeSchedule]] = DrapeSchedule
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.PHASES = (*DRAPE_PHASES, *cls.SCHEDULE.AFTER_SETTLE, "done")
+
+    def __init__(self, config: DC, object_height_m: float, seed: int):
+        super().__init__(config, seed)
+        self.schedule = self.SCHEDULE.from_config(config, object_height_m)
+
+    @classmethod
+    def make_environment(cls, config: DC, seed: int) -> control.Environment:
+        """The dm-control environment of one trial, its time limit the end of the schedule's last phase."""
+        scene = build_scene(config.scene_config(), hub_pos=(0.0, 0.0, 1.0))
+        task = cls(config, scene.object_info.height_m, seed)
+        return control.Environment(
+            ScenePhysics.from_scene(scene),
+            task,
+            time_limit=task.schedule.boundaries()[-1][1],
+            n_sub_steps=config.n_sub_steps,
+        )
 
     def initialize_episode(self, physics: ScenePhysics) -> None:
         """Draw bending planes, offset direction and joint perturbations; place the hub above the object."""
@@ -163,18 +196,14 @@ class DrapeTask(GripperTask[DC]):
 
 
 def register_object_tasks(
-    domain: str,
-    config_type: type[DC],
-    make_environment: Callable[[DC, int], control.Environment],
-    what: str,
-    tags: Iterable[str],
+    domain: str, config_type: type[DC], task_type: type[DrapeTask[DC]], what: str, tags: Iterable[str]
 ) -> None:
     """Register task `domain/<object>` for every object of the library (mesh objects also tagged 'mesh')."""
     for name in objects.names():
         register_task(
             f"{domain}/{name}",
             config_type=config_type,
-            make_environment=make_environment,
+            make_environment=task_type.make_environment,
             tags=tuple(tags) + (("mesh",) if objects.is_mesh_object(name) else ()),
             description=f"{what} of {name}: {objects.description(name)}",
         )(_object_default(config_type, name))

@@ -14,13 +14,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from dm_control.rl import control
 
 from entangle_bench.config import check_range
-from entangle_bench.scene import build_scene
 from entangle_bench.suite.base import Outcome
 from entangle_bench.suite.drape import (
-    DRAPE_PHASES,
     DrapeConfig,
     DrapePhases,
     DrapeSchedule,
@@ -29,12 +26,11 @@ from entangle_bench.suite.drape import (
 )
 from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, ScenePhysics
 
-PHASES = (*DRAPE_PHASES, "lift", "hold", "release", "done")
-
 
 @dataclass(frozen=True)
 class Phases(DrapePhases):
-    """Timing and geometry of the scripted top-drape sequence: the drape, then lift, hold, release (SI units)."""
+    """Timing and geometry of the scripted top-drape sequence (SI units): the drape, then the lift (hub speed
+    `lift_speed_m_s`), the hold (`hold_time_s`) and the release (pressure back to zero in `release_time_s`)."""
 
     lift_height_m: float = 0.10
     """Hub rise during the lift, m."""
@@ -43,11 +39,10 @@ class Phases(DrapePhases):
     release_time_s: float = 0.5
 
     def __post_init__(self) -> None:
-        super().__post_init__()
-        check_range("phases.lift_height_m", self.lift_height_m, 0.0, 2.0, low_open=True)
-        check_range("phases.lift_speed_m_s", self.lift_speed_m_s, 0.0, MAX_HUB_SPEED_M_S, low_open=True)
-        check_range("phases.hold_time_s", self.hold_time_s, 0.0, 600.0, low_open=True)
+        for name, high in (("lift_height_m", 2.0), ("lift_speed_m_s", MAX_HUB_SPEED_M_S), ("hold_time_s", 600.0)):
+            check_range(f"phases.{name}", getattr(self, name), 0.0, high, low_open=True)
         check_range("phases.release_time_s", self.release_time_s, 0.0, 60.0)
+        super().__post_init__()
 
 
 @dataclass(frozen=True)
@@ -71,23 +66,20 @@ class Schedule(DrapeSchedule):
     t_release: float
     t_end: float
 
+    AFTER_SETTLE = ("lift", "hold", "release")
+
     @classmethod
-    def from_config(cls, config: TopDrapeConfig, object_height_m: float) -> Schedule:
-        """Phase times for an object of the given height."""
+    def after_settle(cls, config: TopDrapeConfig, t_settled: float) -> tuple[float, float, float]:
+        """Ends of the lift, hold and release, s."""
         ph = config.phases
-        drape = cls.drape_times(config, object_height_m)
-        t_hold = drape[-1] + ph.lift_height_m / ph.lift_speed_m_s
+        t_hold = t_settled + ph.lift_height_m / ph.lift_speed_m_s
         t_release = t_hold + ph.hold_time_s
-        return cls(*drape, t_hold, t_release, t_release + ph.release_time_s)
+        return t_hold, t_release, t_release + ph.release_time_s
 
     @property
     def t_lift(self) -> float:
         """Start of the lift (the end of the settle), s."""
         return self.t_settled
-
-    def boundaries(self) -> tuple[tuple[str, float], ...]:
-        """The drape's phases, then lift, hold and release."""
-        return (*super().boundaries(), ("lift", self.t_hold), ("hold", self.t_release), ("release", self.t_end))
 
 
 @dataclass
@@ -108,14 +100,12 @@ class _GraspTracking:
 class TopDrape(DrapeTask[TopDrapeConfig]):
     """Drape the filament array over an object, actuate, lift and hold."""
 
-    PHASES = PHASES
     SNAPSHOTS = {"actuated": "lift", "held": "release"}
-
-    def __init__(self, config: TopDrapeConfig, object_height_m: float, seed: int):
-        super().__init__(config, seed)
-        self.schedule = Schedule.from_config(config, object_height_m)
-        self._tracking = _GraspTracking()
-        self._object_z0 = 0.0
+    SCHEDULE = Schedule
+    schedule: Schedule
+    _tracking: _GraspTracking
+    _object_z0: float
+    """Height of the object's origin at the start, m."""
 
     def initialize_episode(self, physics: ScenePhysics) -> None:
         """Set up the drape (`DrapeTask`); remember the object's height and reset the grasp tracking."""
@@ -189,18 +179,4 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         return {"lift_height_m": self._tracking.max_rise_m, "hold_time_reached_s": self._tracking.hold_reached_s}
 
 
-def make_environment(config: TopDrapeConfig, seed: int) -> control.Environment:
-    """Build the dm-control environment of one trial."""
-    scene = build_scene(config.scene_config(), hub_pos=(0.0, 0.0, 1.0))
-    task = TopDrape(config, scene.object_info.height_m, seed)
-    return control.Environment(
-        ScenePhysics.from_scene(scene),
-        task,
-        time_limit=task.schedule.t_end,
-        n_sub_steps=config.n_sub_steps,
-    )
-
-
-register_object_tasks(
-    "top_drape", TopDrapeConfig, make_environment, "top-drape lift-and-hold", tags=("benchmark",)
-)
+register_object_tasks("top_drape", TopDrapeConfig, TopDrape, "top-drape lift-and-hold", tags=("benchmark",))
