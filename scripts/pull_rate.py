@@ -36,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pull_rate: error: {exc}", file=sys.stderr)
         return 2
     study = run_pull_rate(specs, args.out, args.workers)
-    columns = ["config.object_name", "param.pull.speed_m_s", "scored", "peak_force_median_n",
+    columns = ["config.object_name", "config.pull.speed_m_s", "scored", "peak_force_median_n",
                "peak_force_ci95_low_n", "peak_force_ci95_high_n", "toughness_median_j", "toughness_ci95_low_j",
                "toughness_ci95_high_j"]
     with pd.option_context("display.width", 200, "display.max_columns", 20):

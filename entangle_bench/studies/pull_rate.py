@@ -1,7 +1,8 @@
 """Rate independence of the pull-out test: the same seeded trials at two or more pull speeds.
 
 `rate_specs` makes the trials: every object crossed with every speed, the same seeds at each speed (so the
-grasps before the pull are the same; only `pull.speed_m_s` differs). `run_pull_rate` runs them through the
+grasps before the pull are the same; only `pull.speed_m_s` differs, so a trial already run, e.g. by the
+`pullout` suite, has the same trial id and is reused from the log). `run_pull_rate` runs them through the
 runner (resumable trial log under `out`), then per (object, speed) the pull-out table
 (`metrics.pullout.pullout_table`: median, IQR and bootstrap 95 % interval of peak force and toughness) and,
 slowest against fastest speed per object, whether they agree (`metrics.pullout.rate_agreement`: the bootstrap
@@ -23,7 +24,8 @@ from entangle_bench.results import TrialLog, atomic_write_csv
 from entangle_bench.runner import TrialSpec, make_executor, run_trials
 from entangle_bench.suites import task_suite
 
-SPEED = "param.pull.speed_m_s"
+#: The rows' column of the pull speed (every row carries its resolved configuration).
+SPEED = "config.pull.speed_m_s"
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,10 +59,7 @@ def rate_specs(
                 trials=trials,
                 seed=seed,
             )
-            specs += [
-                dataclasses.replace(spec, condition=f"{name} v={speed:g} m/s", params=((SPEED, speed),))
-                for spec in suite.specs
-            ]
+            specs += [dataclasses.replace(spec, condition=f"{name} v={speed:g} m/s") for spec in suite.specs]
     return specs
 
 
