@@ -18,7 +18,7 @@ from entangle_bench import effects as fx
 from entangle_bench import objects, runner
 from entangle_bench.cli import main
 from entangle_bench.errors import FileFormatError, ParameterError, UnknownNameError
-from entangle_bench.filament import FilamentParams
+from entangle_bench.filament import FilamentParams, pressure_law
 from entangle_bench.gripper import GripperParams
 from entangle_bench.metrics.pullout import pullout_table
 from entangle_bench.objects.primitives import RodParams
@@ -39,11 +39,28 @@ G = 9.81
 NO_DRAPE = DrapePhases(start_clearance_m=0.0, drape_depth_m=0.0, ramp_time_s=0.0, settle_time_s=0.0)
 
 
+#: Every physical field of the test filaments, so that the tests do not follow the defaults (being recalibrated).
+FILAMENT = dict(
+    length_m=0.1,
+    outer_radius_m=7e-4,
+    channel_radius_ratio=0.5,
+    channel_eccentricity=0.5,
+    youngs_modulus_pa=1e6,
+    poisson_ratio=0.49,
+    density_kg_m3=1100.0,
+    n_segments=10,
+    damping_time_s=0.02,
+    curvature_calibration=2.6,
+    twist_hinge=False,
+)
+
+
 def one_filament(**filament) -> GripperParams:
-    """A single filament at the hub's center curling toward +x."""
-    params = FilamentParams(**filament)
+    """A single filament at the hub's center curling toward +x (FILAMENT with the given fields changed)."""
+    params = FilamentParams(**(FILAMENT | filament))
     return GripperParams(
-        filament=params, ring_diameters_m=(0.0,), ring_counts=(1,), bending_plane="fixed", hub_radius_m=0.01
+        filament=params, ring_diameters_m=(0.0,), ring_counts=(1,), bending_plane="fixed", hub_radius_m=0.01,
+        pressure_pa=172e3,
     )
 
 
@@ -158,12 +175,10 @@ def test_object_welded_to_the_accelerating_hub_reads_weight_plus_inertia(tmp_pat
 
 def rod_peel(friction: str, integrator: str, timestep_s: float, gravity: bool = False) -> PullOutConfig:
     """One 80 mm filament (20 segments) with a 5 mm coil radius on a rod it wraps unstressed; no ground."""
-    coil_radius, radius, modulus, pressure = 0.005, 7e-4, 1e6, 172e3
-    calibration = radius * modulus / (coil_radius * pressure * 0.5**2 * 0.5)  # kappa = 1 / coil_radius
-    gripper = one_filament(
-        length_m=0.08, n_segments=20, outer_radius_m=radius, youngs_modulus_pa=modulus,
-        curvature_calibration=calibration,
-    )
+    coil_radius, radius = 0.005, FILAMENT["outer_radius_m"]
+    shape = FilamentParams(**(FILAMENT | dict(length_m=0.08, n_segments=20)))
+    calibration = (1.0 / coil_radius) / pressure_law(shape, 172e3, 1.0)  # curls to the coil radius at 172 kPa
+    gripper = one_filament(length_m=0.08, n_segments=20, curvature_calibration=calibration)
     ds, kappa = gripper.filament.segment_length_m, 1.0 / coil_radius
     chord_mid = ds / (2 * math.sin(kappa * ds / 2)) * math.cos(kappa * ds / 2)  # polygon's chords at this radius
     rod_radius = chord_mid - radius - 5e-5
@@ -174,7 +189,7 @@ def rod_peel(friction: str, integrator: str, timestep_s: float, gravity: bool = 
             friction=friction,
         ),
         contact=ContactParams(timeconst_s=0.004),
-        numerics=Numerics(timestep_s=timestep_s, integrator=integrator),
+        numerics=Numerics(timestep_s=timestep_s, integrator=integrator, twist_armature_scale=1000.0),
         perturbation_rad=0.0,
         object_name="rod",
         object=RodParams(diameter_m=2 * rod_radius, length_m=0.05, mass_kg=0.01),
@@ -246,11 +261,13 @@ def test_hub_work_is_stored_plus_dissipated_energy(start_hook, gravity):
 def three_filaments_over_sphere(pressure_pa: float) -> PullOutConfig:
     """Three 100 mm filaments (10 segments) on a 20 mm ring draped 50 mm over the sphere; a fast, short pull."""
     gripper = GripperParams(
-        filament=FilamentParams(length_m=0.1, n_segments=10), ring_diameters_m=(0.02,), ring_counts=(3,),
-        pressure_pa=pressure_pa, hub_radius_m=0.02,
+        filament=FilamentParams(**FILAMENT), ring_diameters_m=(0.02,), ring_counts=(3,), pressure_pa=pressure_pa,
+        hub_radius_m=0.02,
     )
     return PullOutConfig(
         gripper=gripper,
+        contact=ContactParams(friction=1.0, timeconst_s=0.02),
+        numerics=Numerics(timestep_s=2e-3, twist_armature_scale=1000.0),
         object_name="sphere",
         phases=DrapePhases(drape_depth_m=0.05, ramp_time_s=0.2, settle_time_s=0.2),
         pull=PullParams(speed_m_s=0.05, max_travel_m=0.15, clamp_time_s=0.1),
