@@ -59,7 +59,8 @@ class PullParams:
     max_travel_m: float = 0.30
     """Largest hub travel, m (the filament length); a grasp that still holds there is `held`."""
     clamp_time_s: float = 0.2
-    """Hub at rest with the object welded before the pull, while the weld takes over its weight, s."""
+    """Hub at rest with the object welded before the pull, while the weld takes over its weight, s (at least
+    ten timesteps: five time constants of the weld)."""
     release_force_n: float = 0.002
     """Release: the pull force stays below this over `release_distance_m` of travel, N."""
     release_distance_m: float = 0.01
@@ -94,6 +95,16 @@ class PullOutConfig(DrapeConfig):
     """Everything that defines one pull-out trial except the seed: the drape over an object, then the pull."""
 
     pull: PullParams = field(default_factory=PullParams)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        # Five time constants of the weld (2 dt): the weight must have moved onto it before the curve starts.
+        check_range(
+            "pull.clamp_time_s (relative to 10 * numerics.timestep_s)",
+            self.pull.clamp_time_s,
+            10.0 * self.numerics.timestep_s,
+            None,
+        )
 
     def scene_config(self) -> SceneConfig:
         """The scene: gripper, object, ground and the (inactive) weld holding the object to `pull.anchor`."""

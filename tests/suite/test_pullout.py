@@ -86,6 +86,7 @@ def test_every_object_has_a_pullout_task_under_both_names():
         ("pull.max_travel_m=0", r"pull.max_travel_m = 0.0 is outside the allowed range \(0, 2\]"),
         ("pull.max_travel_m=-0.1", r"pull.max_travel_m = -0.1 is outside the allowed range"),
         ("pull.direction=0,0,0", r"pull.direction = \(0.0, 0.0, 0.0\) has zero length"),
+        ("pull.clamp_time_s=0.01", r"pull.clamp_time_s \(relative to 10 \* numerics.timestep_s\) = 0.01 is outside"),
         ("object_name=teapot", r"object_name = 'teapot' is not allowed; choose one of \[.*'sphere'"),
     ],
 )
