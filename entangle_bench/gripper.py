@@ -175,12 +175,22 @@ class Gripper:
             raise RuntimeError("Gripper.bind(model) must be called after compiling")
         return self._joints
 
+    @property
+    def body_ids(self) -> np.ndarray:
+        """(F, n) body ids of every filament's segments, root to tip."""
+        if self._body_ids is None:
+            raise RuntimeError("Gripper.bind(model) must be called after compiling")
+        return self._body_ids
+
+    @property
+    def root_body_ids(self) -> np.ndarray:
+        """(F,) body ids of the filaments' root segments, the hub's children."""
+        return self.body_ids[:, 0]
+
     def centerlines(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """(F, n + 1, 3) joint positions root to tip of every filament, m (needs mj_kinematics done)."""
         ds = self.params.filament.segment_length_m
-        ids = self._body_ids
-        if ids is None:
-            raise RuntimeError("Gripper.bind(model) must be called after compiling")
+        ids = self.body_ids
         out = np.empty((ids.shape[0], ids.shape[1] + 1, 3))
         out[:, :-1] = data.xpos[ids]
         out[:, -1] = data.xpos[ids[:, -1]] + ds * data.xmat[ids[:, -1]].reshape(-1, 3, 3)[:, :, 0]

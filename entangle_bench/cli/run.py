@@ -1,4 +1,7 @@
-"""`entangle-bench run SUITE|TASK`: seeded trials, resumable, with a summary table and plot."""
+"""`entangle-bench run SUITE|TASK`: seeded trials, resumable, with a summary table and plot.
+
+Pull-out trials add the pull-out summary `pullout.csv` and its figures (`entangle_bench.pullout.write_report`).
+"""
 
 from __future__ import annotations
 
@@ -12,6 +15,7 @@ from entangle_bench.errors import UnknownNameError
 from entangle_bench.metrics.stats import success_table
 from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import PRESETS
+from entangle_bench.pullout import write_report
 from entangle_bench.results import TrialLog, atomic_write_csv
 from entangle_bench.runner import make_executor, run_trials
 from entangle_bench.stability import envelope_warnings
@@ -84,5 +88,13 @@ def run(args: argparse.Namespace) -> int:
         if column != "param.offset_m" and rows[column].nunique() > 1:
             path = plot_success_vs(rows, column, out / f"success_vs_{column.removeprefix('param.')}.png")
             print(f"plot: {path}")
+    report = write_report(rows, out)
+    if report:
+        table = pd.read_csv(report[0])
+        columns = ["condition", "scored", "released", "slid_off", "held", "peak_force_median_n",
+                   "toughness_median_j", "reference_toughness_j"]
+        with pd.option_context("display.width", 160, "display.max_columns", 20):
+            print(table[columns].to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+        print("pull-out: " + "  ".join(str(p) for p in report))
     print(f"rows: {out / 'trials.csv'}  summary: {out / 'summary.csv'}")
     return 0

@@ -29,7 +29,7 @@ class CurveFile:
     curves: list[np.ndarray]  # (M_k, 3) float64 each, m
 
 
-def _open_npz(path: Path) -> np.lib.npyio.NpzFile:
+def open_npz(path: Path) -> np.lib.npyio.NpzFile:
     """Open an .npz archive; FileFormatError if it is unreadable or a bare .npy array."""
     try:
         archive = np.load(path, allow_pickle=False)
@@ -45,7 +45,7 @@ def load_curves(path: str | Path, *, drop_degenerate: bool = False) -> CurveFile
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
-    archive = _open_npz(path)
+    archive = open_npz(path)
     with archive:
         keys = [k for k in archive.files if k not in _SIDE_KEYS]
         if "curves" in keys:
@@ -97,7 +97,7 @@ def _read(archive: np.lib.npyio.NpzFile, path: Path, key: str) -> np.ndarray:
 def load_contacts(path: str | Path) -> tuple[np.ndarray, np.ndarray] | None:
     """Contact points (n, 3) in m and kinds (n,) str from an archive, or None if it has none."""
     path = Path(path)
-    archive = _open_npz(path)
+    archive = open_npz(path)
     with archive:
         if "contact_points" not in archive.files:
             return None

@@ -10,37 +10,28 @@ and `held` are taken at the start of the lift and of the release.
 
 from __future__ import annotations
 
-import collections
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
-import mujoco
 import numpy as np
-from dm_control.rl import control
 
-from entangle_bench import objects
 from entangle_bench.config import check_range
-from entangle_bench.scene import SceneConfig, build_scene
-from entangle_bench.suite.base import Outcome, register_task
-from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, GripperTask, GripperTaskConfig, ScenePhysics
-
-PHASES = ("approach", "actuate", "settle", "lift", "hold", "release", "done")
+from entangle_bench.suite.base import Outcome
+from entangle_bench.suite.drape import (
+    DrapeConfig,
+    DrapePhases,
+    DrapeSchedule,
+    DrapeTask,
+    register_object_tasks,
+)
+from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, ScenePhysics
 
 
 @dataclass(frozen=True)
-class Phases:
-    """Timing and geometry of the scripted top-drape sequence (SI units)."""
+class Phases(DrapePhases):
+    """Timing and geometry of the scripted top-drape sequence (SI units): the drape, then the lift (hub speed
+    `lift_speed_m_s`), the hold (`hold_time_s`) and the release (pressure back to zero in `release_time_s`)."""
 
-    start_clearance_m: float = 0.01
-    """Gap between the straight filament tips and the object's top at the start, m."""
-    drape_depth_m: float = 0.10
-    """How far below the object's top the straight filament tips would reach at the end of the approach, m."""
-    approach_speed_m_s: float = 0.1
-    ramp_time_s: float = 1.0
-    """Pressure ramp from 0 to the operating pressure, s."""
-    settle_time_s: float = 1.0
     lift_height_m: float = 0.10
     """Hub rise during the lift, m."""
     lift_speed_m_s: float = 0.05
@@ -48,84 +39,47 @@ class Phases:
     release_time_s: float = 0.5
 
     def __post_init__(self) -> None:
-        check_range("phases.start_clearance_m", self.start_clearance_m, 0.0, 1.0)
-        check_range("phases.drape_depth_m", self.drape_depth_m, 0.0, 1.0)
-        check_range("phases.approach_speed_m_s", self.approach_speed_m_s, 0.0, MAX_HUB_SPEED_M_S, low_open=True)
-        check_range("phases.ramp_time_s", self.ramp_time_s, 0.0, 60.0)
-        check_range("phases.settle_time_s", self.settle_time_s, 0.0, 60.0)
-        check_range("phases.lift_height_m", self.lift_height_m, 0.0, 2.0, low_open=True)
-        check_range("phases.lift_speed_m_s", self.lift_speed_m_s, 0.0, MAX_HUB_SPEED_M_S, low_open=True)
-        check_range("phases.hold_time_s", self.hold_time_s, 0.0, 600.0, low_open=True)
+        for name, high in (("lift_height_m", 2.0), ("lift_speed_m_s", MAX_HUB_SPEED_M_S), ("hold_time_s", 600.0)):
+            check_range(f"phases.{name}", getattr(self, name), 0.0, high, low_open=True)
         check_range("phases.release_time_s", self.release_time_s, 0.0, 60.0)
+        super().__post_init__()
 
 
 @dataclass(frozen=True)
-class TopDrapeConfig(GripperTaskConfig):
+class TopDrapeConfig(DrapeConfig):
     """Everything that defines one top-drape trial except the seed: the gripper scene plus object and sequence."""
 
-    object_name: str = "eight_branch_tree"
-    object: Any = None
-    """The object's parameter dataclass (None: the object's defaults)."""
     phases: Phases = field(default_factory=Phases)
-    offset_m: float = 0.0
-    """Centering offset: horizontal distance between the gripper axis and the object axis, m."""
-    offset_angle_rad: float | None = None
-    """Direction of the offset; None draws it uniformly from the trial seed."""
     success_margin_m: float = 0.02
     """Success: the object's lowest point stays at least this far above the ground for the whole hold, m."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        check_range("offset_m", self.offset_m, 0.0, 1.0)
-        if self.offset_angle_rad is not None:
-            check_range("offset_angle_rad", self.offset_angle_rad, -2 * math.pi, 2 * math.pi)
         check_range("success_margin_m", self.success_margin_m, 0.0, 1.0, low_open=True)
-
-    def scene_config(self) -> SceneConfig:
-        """The scene: gripper, object and ground."""
-        return SceneConfig(
-            gripper=self.gripper,
-            object_name=self.object_name,
-            object_params=self.object,
-            effects=self.effects,
-            contact=self.contact,
-            numerics=self.numerics,
-        )
 
 
 @dataclass(frozen=True)
-class Schedule:
-    """Absolute phase boundaries (s) and hub heights (m) of one trial."""
+class Schedule(DrapeSchedule):
+    """Absolute phase boundaries (s) and hub heights (m) of one top-drape trial."""
 
-    hub_start_z: float
-    hub_drape_z: float
-    t_actuate: float
-    t_settle: float
-    t_lift: float
     t_hold: float
     t_release: float
     t_end: float
 
-    @classmethod
-    def from_config(cls, config: TopDrapeConfig, object_height_m: float) -> Schedule:
-        """Phase times for an object of the given height."""
-        ph, length = config.phases, config.gripper.filament.length_m
-        start = object_height_m + length + ph.start_clearance_m
-        drape = object_height_m + length - ph.drape_depth_m
-        t_actuate = (start - drape) / ph.approach_speed_m_s
-        t_settle = t_actuate + ph.ramp_time_s
-        t_lift = t_settle + ph.settle_time_s
-        t_hold = t_lift + ph.lift_height_m / ph.lift_speed_m_s
-        t_release = t_hold + ph.hold_time_s
-        return cls(start, drape, t_actuate, t_settle, t_lift, t_hold, t_release, t_release + ph.release_time_s)
+    AFTER_SETTLE = ("lift", "hold", "release")
 
-    def phase(self, t: float) -> str:
-        """Name of the phase at time t (s)."""
-        bounds = (self.t_actuate, self.t_settle, self.t_lift, self.t_hold, self.t_release, self.t_end)
-        for name, end in zip(PHASES, bounds):
-            if t < end - 1e-9:
-                return name
-        return "done"
+    @classmethod
+    def after_settle(cls, config: TopDrapeConfig, t_settled: float) -> tuple[float, float, float]:
+        """Ends of the lift, hold and release, s."""
+        ph = config.phases
+        t_hold = t_settled + ph.lift_height_m / ph.lift_speed_m_s
+        t_release = t_hold + ph.hold_time_s
+        return t_hold, t_release, t_release + ph.release_time_s
+
+    @property
+    def t_lift(self) -> float:
+        """Start of the lift (the end of the settle), s."""
+        return self.t_settled
 
 
 @dataclass
@@ -143,33 +97,21 @@ class _GraspTracking:
     """Hold time the object stayed above the margin, s."""
 
 
-class TopDrape(GripperTask[TopDrapeConfig]):
+class TopDrape(DrapeTask[TopDrapeConfig]):
     """Drape the filament array over an object, actuate, lift and hold."""
 
-    PHASES = PHASES
     SNAPSHOTS = {"actuated": "lift", "held": "release"}
-
-    def __init__(self, config: TopDrapeConfig, object_height_m: float, seed: int):
-        super().__init__(config, seed)
-        self.schedule = Schedule.from_config(config, object_height_m)
-        self._tracking = _GraspTracking()
-        self._object_z0 = 0.0
+    SCHEDULE = Schedule
+    schedule: Schedule
+    _tracking: _GraspTracking
+    _object_z0: float
+    """Height of the object's origin at the start, m."""
 
     def initialize_episode(self, physics: ScenePhysics) -> None:
-        """Draw bending planes, offset direction and joint perturbations; place the hub above the object."""
-        cfg, model, data = self.config, physics.model.ptr, physics.data.ptr
-        self.reset_actuation(physics)
-        angle = self.rng.uniform(-math.pi, math.pi) if cfg.offset_angle_rad is None else cfg.offset_angle_rad
-        data.mocap_pos[0] = (
-            cfg.offset_m * math.cos(angle),
-            cfg.offset_m * math.sin(angle),
-            self.schedule.hub_start_z,
-        )
-        self.perturb_joints(physics, cfg.perturbation_rad)
-        mujoco.mj_kinematics(model, data)
+        """Set up the drape (`DrapeTask`); remember the object's height and reset the grasp tracking."""
+        super().initialize_episode(physics)
         self._object_z0 = physics.object_pose()[0][2]
         self._tracking = _GraspTracking()
-        super().initialize_episode(physics)
 
     def phase(self, physics: ScenePhysics) -> str:
         """Phase of the scripted sequence the next control step runs in."""
@@ -179,12 +121,8 @@ class TopDrape(GripperTask[TopDrapeConfig]):
         """The reference open-loop policy: (hub vx, vy, vz in m/s, pressure fraction) at the current time."""
         ph, schedule, t = self.config.phases, self.schedule, physics.time()
         phase = schedule.phase(t)
-        vz, pressure = 0.0, 0.0
-        if phase == "approach":
-            vz = -ph.approach_speed_m_s
-        elif phase == "actuate":
-            pressure = (t - schedule.t_actuate) / ph.ramp_time_s if ph.ramp_time_s > 0 else 1.0
-        elif phase in ("settle", "hold"):
+        vz, pressure = self.drape_action(t) or (0.0, 0.0)
+        if phase == "hold":
             pressure = 1.0
         elif phase == "lift":
             vz, pressure = ph.lift_speed_m_s, 1.0
@@ -240,46 +178,5 @@ class TopDrape(GripperTask[TopDrapeConfig]):
         """Largest rise of the object over the trial (m) and how long the hold held (s)."""
         return {"lift_height_m": self._tracking.max_rise_m, "hold_time_reached_s": self._tracking.hold_reached_s}
 
-    def get_observation(self, physics: ScenePhysics) -> collections.OrderedDict:
-        """Filament centerlines, hub and object pose, contact counts by kind, pressure."""
-        pos, quat = physics.object_pose()
-        gripper = self.gripper_observation(physics)
-        return collections.OrderedDict(
-            centerlines=gripper["centerlines"],
-            hub_position=gripper["hub_position"],
-            object_position=pos,
-            object_quaternion=quat,
-            contact_counts=gripper["contact_counts"],
-            pressure=gripper["pressure"],
-        )
 
-
-def make_environment(config: TopDrapeConfig, seed: int) -> control.Environment:
-    """Build the dm-control environment of one trial."""
-    scene = build_scene(config.scene_config(), hub_pos=(0.0, 0.0, 1.0))
-    task = TopDrape(config, scene.object_info.height_m, seed)
-    return control.Environment(
-        ScenePhysics.from_scene(scene),
-        task,
-        time_limit=task.schedule.t_end,
-        n_sub_steps=config.n_sub_steps,
-    )
-
-
-def _object_task(object_name: str) -> Callable[[], TopDrapeConfig]:
-    """Default-config function of the top-drape task of one object."""
-
-    def default_config() -> TopDrapeConfig:
-        return TopDrapeConfig(object_name=object_name, object=objects.default_params(object_name))
-
-    return default_config
-
-
-for _name in objects.names():
-    register_task(
-        f"top_drape/{_name}",
-        config_type=TopDrapeConfig,
-        make_environment=make_environment,
-        tags=("benchmark",) + (("mesh",) if objects.is_mesh_object(_name) else ()),
-        description=f"top-drape lift-and-hold of {_name}: {objects.description(_name)}",
-    )(_object_task(_name))
+register_object_tasks("top_drape", TopDrapeConfig, TopDrape, "top-drape lift-and-hold", tags=("benchmark",))
