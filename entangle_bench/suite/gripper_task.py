@@ -25,7 +25,7 @@ from entangle_bench.errors import ParameterError
 from entangle_bench.geoms import KINDS
 from entangle_bench.gripper import GripperParams, bending_angles
 from entangle_bench.metrics.acn import acn_total
-from entangle_bench.metrics.contacts import ContactSummary, contact_summary
+from entangle_bench.metrics.contacts import ContactSummary, ObjectSupport, contact_summary, object_support
 from entangle_bench.metrics.local_fields import local_fields
 from entangle_bench.presets import Numerics
 from entangle_bench.scene import ContactParams, Scene, SceneConfig
@@ -215,23 +215,12 @@ class ScenePhysics(dm_mujoco.Physics):
         return data.efc_force[rows[:3]].copy() if len(rows) else np.zeros(3)
 
     def object_contact_force(self) -> np.ndarray:
-        """(3,) sum of the contact forces filaments exert on the object, world frame, N.
+        """(3,) sum of the contact forces filaments exert on the object, world frame, N."""
+        return self.object_support().filament_total
 
-        `mj_contactForce` gives each active contact's force in its contact frame (rows: normal from geom1 to
-        geom2, then the tangents), the force on geom2; the force on geom1 is its opposite.
-        """
-        model, data = self.model.ptr, self.data.ptr
-        geoms, total, wrench = self.scene.geoms, np.zeros(3), np.zeros(6)
-        contacts = data.contact
-        pairs = contacts.geom[: data.ncon]
-        on_object = geoms.is_object[pairs]
-        by_filament = geoms.filament[pairs] >= 0
-        touching = (on_object[:, 1] & by_filament[:, 0]) | (on_object[:, 0] & by_filament[:, 1])
-        for i in np.flatnonzero(touching & (contacts.efc_address[: data.ncon] >= 0)):
-            mujoco.mj_contactForce(model, data, int(i), wrench)
-            force = contacts.frame[i].reshape(3, 3).T @ wrench[:3]
-            total += force if on_object[i, 1] else -force
-        return total
+    def object_support(self) -> ObjectSupport:
+        """Forces on the object by source (filaments by part, pinches, ground), world frame, N."""
+        return object_support(self.model.ptr, self.data.ptr, self.scene.geoms)
 
     def object_weight(self) -> np.ndarray:
         """(3,) gravity force on the object, world frame, N (zero without gravity or object)."""

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from entangle_bench.config import check_range
+from entangle_bench.metrics.contacts import ObjectSupport
 from entangle_bench.suite.base import Outcome
 from entangle_bench.suite.drape import (
     DrapeConfig,
@@ -52,10 +53,14 @@ class TopDrapeConfig(DrapeConfig):
     phases: Phases = field(default_factory=Phases)
     success_margin_m: float = 0.02
     """Success: the object's lowest point stays at least this far above the ground for the whole hold, m."""
+    max_tilt_deg: float = 45.0
+    """Success also needs the object upright: its vertical axis within this angle of the world's for the whole
+    hold, deg (a toppled or dangling object is not a grasp)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
         check_range("success_margin_m", self.success_margin_m, 0.0, 1.0, low_open=True)
+        check_range("max_tilt_deg", self.max_tilt_deg, 0.0, 180.0, low_open=True)
 
 
 @dataclass(frozen=True)
@@ -92,9 +97,24 @@ class _GraspTracking:
     """The object's lowest point cleared the success margin during the lift."""
     low_at_hold_start: bool = False
     hold_failed_at_s: float | None = None
-    """Hold time at which the object first fell below the margin, s."""
+    """Hold time at which the object first fell below the margin or tilted too far, s."""
+    failed_by_tilt: bool = False
+    """The hold failed because the object tilted beyond the limit while still above the margin."""
     hold_reached_s: float = 0.0
-    """Hold time the object stayed above the margin, s."""
+    """Hold time the object stayed above the margin and upright, s."""
+    max_hold_tilt_deg: float = 0.0
+    """Largest tilt of the object's vertical axis during the hold, deg."""
+    peak_lift_force_n: float = 0.0
+    """Largest upward force the filaments exerted on the object (lift and hold), N."""
+    support_samples: int = 0
+    support_z_n: dict[str, float] = field(default_factory=dict)
+    """Sum over hold steps of the upward force on the object by source, N (divide by support_samples)."""
+
+
+def object_tilt_deg(quat: np.ndarray) -> float:
+    """Angle between an object's vertical axis (body z, quaternion w, x, y, z) and the world's, deg."""
+    w, x, y, _ = quat
+    return math.degrees(math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (x * x + y * y)))))
 
 
 class TopDrape(DrapeTask[TopDrapeConfig]):
@@ -131,29 +151,47 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         return np.array([0.0, 0.0, vz, min(1.0, max(0.0, pressure))])
 
     def after_step(self, physics: ScenePhysics) -> None:
-        """Track the grasp; decide the outcome once the hold is over.
+        """Track the grasp and what carries the object; decide the outcome once the hold is over.
 
-        Success: the object's lowest point stays at least `success_margin_m` above the ground for the whole
-        hold. Failure modes: never_lifted, dropped_during_lift (low when the hold starts),
-        dropped_during_hold.
+        Success: for the whole hold the object's lowest point stays at least `success_margin_m` above the
+        ground and its vertical axis within `max_tilt_deg` of the world's. Failure modes: never_lifted,
+        dropped_during_lift (low when the hold starts), dropped_during_hold, tilted (held up but tipped).
         """
-        t, s, track = physics.time(), self.schedule, self._tracking
-        low = physics.object_lowest_z()
-        margin = self.config.success_margin_m
-        track.max_rise_m = max(track.max_rise_m, physics.object_pose()[0][2] - self._object_z0)
+        t, s, track, cfg = physics.time(), self.schedule, self._tracking, self.config
+        pos, quat = physics.object_pose()
+        low, tilt = physics.object_lowest_z(), object_tilt_deg(quat)
+        track.max_rise_m = max(track.max_rise_m, pos[2] - self._object_z0)
         phase = s.phase(t - 1e-9)
-        if phase == "lift" and low >= margin:
+        if phase in ("lift", "hold"):
+            support = physics.object_support()
+            track.peak_lift_force_n = max(track.peak_lift_force_n, float(support.filament_total[2]))
+        if phase == "lift" and low >= cfg.success_margin_m:
             track.lifted = True
         if phase == "hold":
-            if track.hold_reached_s == 0.0 and low < margin:
+            self._add_support(support)
+            track.max_hold_tilt_deg = max(track.max_hold_tilt_deg, tilt)
+            if track.hold_reached_s == 0.0 and low < cfg.success_margin_m:
                 track.low_at_hold_start = True
             if track.hold_failed_at_s is None:
-                if low < margin:
+                if low < cfg.success_margin_m or tilt > cfg.max_tilt_deg:
                     track.hold_failed_at_s = t - s.t_hold
+                    track.failed_by_tilt = low >= cfg.success_margin_m
                 else:
                     track.hold_reached_s = t - s.t_hold
         if t >= s.t_release - 1e-9 and self.outcome is None:
             self.decide(self._classify(t))
+
+    def _add_support(self, support: ObjectSupport) -> None:
+        """Add one hold step's upward forces on the object by source to the running sums."""
+        sums, track = self._tracking.support_z_n, self._tracking
+        sources = {"ground": support.ground[2], "pinched": support.pinched[2]}
+        for part, force in support.by_part.items():
+            key = f"part.{part.rstrip('0123456789')}"
+            sources[key] = sources.get(key, 0.0) + force[2]
+        sources["filament_filament_normal"] = support.filament_filament_n
+        for name, value in sources.items():
+            sums[name] = sums.get(name, 0.0) + float(value)
+        track.support_samples += 1
 
     def _classify(self, t: float) -> Outcome:
         """The outcome from the tracking at the end of the hold (time t, s)."""
@@ -163,6 +201,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
             "lifted": float(track.lifted),
             "hold_reached_s": track.hold_reached_s,
             "hold_failed_at_s": math.nan if track.hold_failed_at_s is None else track.hold_failed_at_s,
+            "max_hold_tilt_deg": track.max_hold_tilt_deg,
         }
         if track.hold_failed_at_s is None:
             return Outcome("success", "", t, evidence)
@@ -170,13 +209,35 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
             mode = "never_lifted"
         elif track.low_at_hold_start:
             mode = "dropped_during_lift"
+        elif track.failed_by_tilt:
+            mode = "tilted"
         else:
             mode = "dropped_during_hold"
         return Outcome("failure", mode, t, evidence)
 
     def metrics(self, physics: ScenePhysics) -> dict[str, float]:
-        """Largest rise of the object over the trial (m) and how long the hold held (s)."""
-        return {"lift_height_m": self._tracking.max_rise_m, "hold_time_reached_s": self._tracking.hold_reached_s}
+        """Rise (m), hold reached (s), hold tilt (deg), peak lift force and the hold's support by source.
+
+        `peak_lift_force_w` and `support.<source>_w` are in units of the object's weight W; the support is the
+        mean upward force over the hold by source (`part.<part>`: filaments on that part of the object,
+        `pinched`, `ground`); `support.filament_filament_normal_n` the mean normal force between filaments, N.
+        """
+        track = self._tracking
+        weight = float(np.linalg.norm(physics.object_weight())) or math.nan
+        row = {
+            "lift_height_m": track.max_rise_m,
+            "hold_time_reached_s": track.hold_reached_s,
+            "max_hold_tilt_deg": track.max_hold_tilt_deg,
+            "peak_lift_force_w": track.peak_lift_force_n / weight,
+        }
+        samples = max(1, track.support_samples)
+        for name, total in sorted(track.support_z_n.items()):
+            mean = total / samples
+            if name == "filament_filament_normal":
+                row["support.filament_filament_normal_n"] = mean
+            else:
+                row[f"support.{name}_w"] = mean / weight
+        return row
 
 
 register_object_tasks("top_drape", TopDrapeConfig, TopDrape, "top-drape lift-and-hold", tags=("benchmark",))

@@ -51,7 +51,7 @@ FILAMENT = dict(
     n_segments=10,
     damping_time_s=0.02,
     curvature_calibration=2.6,
-    twist_hinge=False,
+    joints="ball",
 )
 
 
@@ -210,9 +210,13 @@ def wrap_on_rod(config: PullOutConfig, straight_m: float = 0.016):
     def prepare(physics: ScenePhysics) -> None:
         model, data = physics.model.ptr, physics.data.ptr
         gripper = physics.scene.gripper
-        rest = gripper.rest_pose(kappa, np.zeros(1))[0]
-        for j, address in enumerate(gripper.spring_addresses[0]):
-            data.qpos[address] = rest[1] if j >= n_straight else (1.0, 0.0, 0.0, 0.0)
+        joints, axes = gripper.joints, gripper.bend_axes(np.zeros(1))
+        joints.set_rest(model, kappa * axes, filament.segment_length_m, axes)
+        coiled = model.qpos_spring[joints.qpos[0]].copy()
+        joints.set_rest(model, 0.0 * axes, filament.segment_length_m, axes)  # pressure 0 until the task actuates
+        straight = model.qpos_spring[joints.qpos[0]].copy()
+        for j, address in enumerate(joints.qpos[0]):
+            data.qpos[address] = coiled[j] if j >= n_straight else straight[j]
         data.mocap_pos[0] = 0.0
         mujoco.mj_kinematics(model, data)
         coil = physics.centerlines()[0, n_straight + 1 :]
