@@ -550,11 +550,11 @@ def rod_plan(smoke: bool) -> tuple[list[RodCase], dict[str, list[int]], list[Rod
     cases = [load_case(p) for p in sorted(CASES.glob("*.json"))]
     if smoke:
         cases = [c for c in cases if c.name in ("soft_cantilever", "arc_zero_gravity")]
-        plan = {"ball": [8], "cable": [8], "ball_twist": [8], "flex1d": [8]}
+        plan = {"ball": [8], "cable": [8], "ball_isotropic": [8], "flex1d": [8]}
         configs = [RodConfig("ball", 8, 2e-3, "implicitfast"), RodConfig("flex1d", 8, 1e-3, "discrete")]
         return cases, plan, configs, RodConfig("ball", 16, 5e-4, "implicitfast", 1.0), 0.1
     segments = [8, 12, 16, 24, 32, 40]
-    plan = {"ball": segments, "ball_twist": segments, "cable": segments, "flex1d": [8, 12, 16, 24]}
+    plan = {"ball": segments, "ball_isotropic": segments, "cable": segments, "flex1d": [8, 12, 16, 24]}
     configs = []
     for n in segments:
         for dt in (4e-3, 2e-3, 1e-3, 5e-4):
@@ -564,7 +564,7 @@ def rod_plan(smoke: bool) -> tuple[list[RodCase], dict[str, list[int]], list[Rod
         for n, dt in ((16, 2e-3), (24, 1e-3), (32, 1e-3)):
             for integrator in ("euler", "implicitfast"):
                 configs.append(RodConfig("ball", n, dt, integrator, scale))
-    for rep in ("ball_twist", "cable"):
+    for rep in ("ball_isotropic", "cable"):
         for n in (12, 16, 24, 32):
             for dt in (2e-3, 1e-3):
                 configs.append(RodConfig(rep, n, dt, "implicitfast"))

@@ -1,8 +1,9 @@
-"""The harness's own filament (ball-joint chain, `entangle_bench.filament`) brought to static equilibrium.
+"""The harness's own filament (`entangle_bench.filament`) brought to static equilibrium.
 
-The rod is built with exactly the builder the gripper uses, clamped at the case's base frame, started in its
-rest shape, and relaxed with dynamic relaxation (kinetic damping) until every body is at rest. It has
-nothing to touch, so it compiles with collision off.
+The rod is built with exactly the builder the gripper uses (ball-joint chain with a series twist hinge per
+segment; `twist_hinge=False` gives the plain, isotropic ball chain), clamped at the case's base frame,
+started in its rest shape, and relaxed with dynamic relaxation (kinetic damping) until every body is at
+rest. It has nothing to touch, so it compiles with collision off.
 
 Equilibrium branch: dynamic relaxation preserves symmetry, so a planar rod started exactly in its plane can
 come to rest on an unstable planar equilibrium (a saddle: curl_hanging with 14-16 or 32 segments stops on a
@@ -40,9 +41,12 @@ MAX_STABILITY_CHECKS = 4
 
 
 def filament_params(
-    case: RodCase, n_segments: int, damping_time_s: float = STATICS_DAMPING_TIME_S
+    case: RodCase, n_segments: int, damping_time_s: float = STATICS_DAMPING_TIME_S, twist_hinge: bool = True
 ) -> FilamentParams:
-    """A solid filament with the case's geometry and material; joint damping time `damping_time_s` (s)."""
+    """A solid filament with the case's geometry and material; joint damping time `damping_time_s` (s).
+
+    `twist_hinge` False gives the plain ball chain (twist stiffness E I instead of G J).
+    """
     return FilamentParams(
         length_m=case.length,
         outer_radius_m=case.radius,
@@ -53,6 +57,7 @@ def filament_params(
         density_kg_m3=case.density,
         n_segments=n_segments,
         damping_time_s=damping_time_s,
+        twist_hinge=twist_hinge,
     )
 
 
@@ -61,10 +66,12 @@ def build_rod(
     n_segments: int,
     numerics: Numerics,
     damping_time_s: float = STATICS_DAMPING_TIME_S,
+    twist_hinge: bool = True,
 ) -> tuple[mujoco.MjModel, np.ndarray, list[str]]:
-    """Compile the clamped rod; return the model, its qpos addresses (n, 4) and body names.
+    """Compile the clamped rod; return the model, its ball joints' qpos addresses (n, 4) and body names.
 
-    `damping_time_s` (s) is the joints' Kelvin-Voigt relaxation time (statics default: 0.2 s).
+    `damping_time_s` (s) is the joints' Kelvin-Voigt relaxation time (statics default: 0.2 s); `twist_hinge`
+    False builds the plain ball chain. The twist hinges' axes are set to the rest mid-tangents.
     """
     spec = mujoco.MjSpec()
     numerics.apply(spec)
@@ -73,7 +80,7 @@ def build_rod(
     mujoco.mju_mat2Quat(quat, case.base_frame.flatten())
     handle = add_filament(
         spec.worldbody,
-        filament_params(case, n_segments, damping_time_s),
+        filament_params(case, n_segments, damping_time_s, twist_hinge),
         0,
         pos=case.base_position,
         quat=tuple(quat),
@@ -141,18 +148,19 @@ def solve_mujoco(
     numerics: Numerics | None = None,
     points: int = 201,
     max_time_s: float = 60.0,
+    twist_hinge: bool = True,
 ) -> RodResult:
     """Static equilibrium of `case` with the harness filament; centerline at `points` uniform-arclength points.
 
     The preset sets segments and numerics; `n_segments`/`numerics` override them. Statics always use
     implicit damping (`implicitfast`) so the long relaxation time is stable. `max_time_s` bounds each
-    relaxation in simulated seconds.
+    relaxation in simulated seconds. `twist_hinge` False solves the plain (isotropic) ball chain.
     """
     chosen = get_preset(preset)
     n = n_segments or chosen.n_segments
     numerics = numerics or chosen.numerics
     statics = dataclasses.replace(numerics, integrator="implicitfast")
-    model, adr, bodies = build_rod(case, n, statics)
+    model, adr, bodies = build_rod(case, n, statics, twist_hinge=twist_hinge)
     ds = case.length / n
     rest = rest_quaternions(n, ds, case.darboux)
     model.qpos_spring[adr] = rest
@@ -178,7 +186,7 @@ def solve_mujoco(
         wall_time_s=wall,
         settings={
             "preset": preset,
-            "representation": "ball",
+            "representation": "ball" if twist_hinge else "ball_isotropic",
             "n_segments": n,
             "timestep_s": statics.timestep_s,
             "integrator": statics.integrator,

@@ -1,4 +1,5 @@
-"""Alternative MuJoCo rod representations (study only) against the analytic and BVP references."""
+"""MuJoCo rod representations (the harness filament `ball`, its hinge-free `ball_isotropic`, `cable`, `flex1d`)
+against the analytic and BVP references."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import pytest
 from entangle_bench.errors import ParameterError
 from entangle_bench.rods import analytic as an
 from entangle_bench.rods.case import centerline_error, load_case
-from entangle_bench.rods.representations import series_twist_stiffness, solve_representation
+from entangle_bench.rods.mujoco_engine import filament_params
+from entangle_bench.rods.representations import REPRESENTATIONS, solve_representation
 
 CASE_DIR = Path(__file__).resolve().parents[2] / "tasks" / "rod_cases"
 
@@ -32,23 +34,30 @@ def _error(case, representation, n):
 
 
 def test_series_twist_hinge_gives_gj_compliance():
-    # Springs in series: ds / GJ = 1 / k_hinge + ds / EI.
+    # Springs in series: ds / GJ = 1 / k_hinge + ds / EI, with the harness filament's own hinge stiffness.
     case = _case("curl_sideways_gravity")
-    ds = 0.01
-    k = series_twist_stiffness(case, ds)
+    params = filament_params(case, 4)
+    ds = params.segment_length_m
+    k = params.twist_hinge_stiffness_nm
     assert 1.0 / k + ds / case.bending_stiffness == pytest.approx(ds / case.twist_stiffness, rel=1e-12)
-    assert series_twist_stiffness(dataclasses.replace(case, poisson_ratio=0.0), ds) == float("inf")
+    assert filament_params(dataclasses.replace(case, poisson_ratio=0.0), 4).twist_hinge_stiffness_nm == float("inf")
     with pytest.raises(ParameterError, match="poisson_ratio"):
-        series_twist_stiffness(dataclasses.replace(case, poisson_ratio=-0.2), ds)
+        filament_params(dataclasses.replace(case, poisson_ratio=-0.2), 4)
+    assert filament_params(dataclasses.replace(case, poisson_ratio=-0.2), 4, twist_hinge=False).twist_hinge is False
+
+
+def test_representation_names():
+    assert REPRESENTATIONS == ("ball", "ball_isotropic", "cable", "flex1d")
 
 
 def test_twist_hinge_fixes_sideways_curl_at_second_order():
-    # The harness chain is 6e-2 L off (isotropic twist); with the series twist hinge about the rest
-    # mid-tangent: 6.2e-3 at 8 and 1.5e-3 at 16 segments.
+    # The harness filament `ball` (series twist hinge about the rest mid-tangent): 6.2e-3 at 8 and 1.5e-3 at
+    # 16 segments; the hinge-free `ball_isotropic` chain stays 6.0e-2 L off at any resolution.
     case = _case("curl_sideways_gravity")
-    coarse, fine = _error(case, "ball_twist", 8), _error(case, "ball_twist", 16)
+    coarse, fine = _error(case, "ball", 8), _error(case, "ball", 16)
     assert fine < 3e-3
     assert 3.0 < coarse / fine < 5.0
+    assert _error(case, "ball_isotropic", 16) > 0.05
 
 
 def test_cable_plugin_matches_soft_cantilever():
