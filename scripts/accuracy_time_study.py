@@ -55,7 +55,13 @@ from entangle_bench.metrics.acn import acn_total  # noqa: E402
 from entangle_bench.presets import PRESETS, Numerics, Preset  # noqa: E402
 from entangle_bench.results import atomic_write_csv, atomic_write_text  # noqa: E402
 from entangle_bench.rods.case import RodCase, centerline_error, load_case  # noqa: E402
-from entangle_bench.rods.comparison import cached_result  # noqa: E402
+from entangle_bench.rods.comparison import (  # noqa: E402
+    cached_result,
+    case_error,
+    reference_name,
+    reference_result,
+)
+from entangle_bench.rods.references import has_reference  # noqa: E402
 from entangle_bench.rods.representations import build_representation, solve_representation  # noqa: E402
 from entangle_bench.suite import resolve_config  # noqa: E402
 from entangle_bench.suite.top_drape import make_environment, scripted_action  # noqa: E402
@@ -151,15 +157,16 @@ def static_rows(
     jobs = [(c, r, n) for c in cases for r, ns in plan.items() for n in ns]
     refs = {}
     for case in tqdm(cases, desc="references", file=sys.stderr):
-        exact = cached_result(case, "analytic", 0, ref_dir)
-        pe = cached_result(case, "pyelastica", elements, ref_dir) if elements else None
+        # Stored PyElastica reference (multi-turn hanging coils) or the closed-form/BVP solution.
+        exact = reference_result(case) if has_reference(case) else cached_result(case, "analytic", 0, ref_dir)
+        pe = cached_result(case, "pyelastica", elements, ref_dir) if elements and not has_reference(case) else None
         refs[case.name] = (exact, pe)
     for case, rep, n in tqdm(jobs, desc="rod statics", file=sys.stderr):
         exact, pe = refs[case.name]
         row: dict[str, Any] = {
             "kind": "static",
             "case": case.name,
-            "reference": exact.settings["method"],
+            "reference": reference_name(exact),
             "representation": rep,
             "n_segments": n,
         }
@@ -171,7 +178,7 @@ def static_rows(
             row["note"] = str(exc)[:120]
             rows.append(row)
             continue
-        row["error_max"], row["error_rms"] = centerline_error(result.centerline, exact.centerline, case.length)
+        row["error_max"], row["error_rms"] = case_error(case, result.centerline, exact.centerline)
         if pe is not None:
             row["error_vs_pyelastica_max"] = centerline_error(result.centerline, pe.centerline, case.length)[0]
             row["pyelastica_vs_analytic_max"] = centerline_error(
