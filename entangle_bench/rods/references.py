@@ -1,17 +1,18 @@
 """Stored reference equilibria of the rod cases: PyElastica at >= 200 elements, written once and read by tests.
 
-Curled rods hanging in gravity have no closed form, and the 3D boundary-value solver (`analytic`) either
-fails to converge on multi-turn shapes or follows its continuation path to another equilibrium than the
-one a rod relaxing from its rest shape reaches. Their reference is a PyElastica run
-(`elastica_engine.solve_elastica`: second-order clamp, shear/stretch stiffened 20x) at REFERENCE_ELEMENTS
-elements or more; coarser runs (CONVERGENCE_ELEMENTS, 50) measure PyElastica's own convergence: at second
-order the finest run is off by about a third of its difference from the run with half the elements. The
-reference of a case is its finest stored run (`load_reference`). Such runs cost minutes each, so the
-centerlines are stored as small NPZ files (`RodResult`, 201 points, about 12 KB) in a `references` folder
-beside the case files, named `<case>_pyelastica_<elements>.npz`. Each file's settings hold the case itself
-and its content hash, the solver settings, the wall time, the PyElastica version and the machine; a case
-edited after its reference was made is refused (`StaleReferenceError`) rather than compared with a shape
-that belongs to another case.
+Curled rods hanging in gravity have no closed form. On the multi-turn coils the 3D boundary-value solver
+(`analytic.kirchhoff_centerline`) does not converge (measured: out of memory at its node limit after
+150 s, or more than 5 minutes), and the planar one finds the planar equilibrium even where that is a saddle
+(coil12_vertical_plane_gravity). Their reference is a PyElastica run (`elastica_engine.solve_elastica`:
+second-order clamp, shear/stretch stiffened 20x) at REFERENCE_ELEMENTS elements or more; coarser runs
+(CONVERGENCE_ELEMENTS, 50) measure PyElastica's own convergence: at second order the finest run is off by
+about a third of its difference from the run with half the elements. The reference of a case is its finest
+stored run (`load_reference`). Such runs cost minutes each, so the centerlines are stored as small NPZ
+files (`RodResult`, 201 points, about 12 KB) in a `references` folder beside the case files, named
+`<case>_pyelastica_<elements>.npz`. Each file's settings hold the case itself and the hash of its physical
+content (`reference_key`: every field but the description), the solver settings, the wall time, the
+PyElastica version and the machine; a case edited after its reference was made is refused
+(`StaleReferenceError`) rather than compared with a shape that belongs to another case.
 
 Branch: every reference starts from the rest shape turned PERTURBATION_RAD out of its bending plane, so
 that a case symmetric about that plane cannot settle on an unstable planar equilibrium (a saddle); on cases
@@ -24,13 +25,15 @@ Regenerate with `entangle-bench references` (every stored run of every case) or
 from __future__ import annotations
 
 import datetime
+import hashlib
+import json
 import os
 import platform
 from importlib.metadata import version
 from pathlib import Path
 
 from entangle_bench.errors import FileFormatError, ParameterError
-from entangle_bench.rods.case import RodCase, RodResult, case_key
+from entangle_bench.rods.case import RodCase, RodResult
 from entangle_bench.rods.elastica_engine import slowest_frequency, solve_elastica
 
 #: Elements of the stored reference.
@@ -56,6 +59,13 @@ FOLDER_NAME = "references"
 
 class StaleReferenceError(FileFormatError):
     """A stored reference was computed for different case content than the case now holds."""
+
+
+def reference_key(case: RodCase) -> str:
+    """Short hash (hex) of the case's physical content: every field of its file except the description."""
+    data = case.to_dict()
+    data.pop("description", None)
+    return hashlib.sha1(json.dumps(data, sort_keys=True).encode()).hexdigest()[:12]
 
 
 def reference_folder(case: RodCase) -> Path:
@@ -98,10 +108,10 @@ def load_reference(case: RodCase, n_elements: int | None = None, folder: Path | 
         )
     result = RodResult.load_npz(path)
     stored_key = result.settings.get("case_key")
-    if stored_key != case_key(case):
+    if stored_key != reference_key(case):
         raise StaleReferenceError(
             f"{path}: computed for other content of case {case.name!r} (key {stored_key}, case now "
-            f"{case_key(case)}); regenerate it with `entangle-bench references --cases {case.source}`"
+            f"{reference_key(case)}); regenerate it with `entangle-bench references --cases {case.source}`"
         )
     return result
 
@@ -137,7 +147,7 @@ def generate_reference(
         )
     settings = {
         **result.settings,
-        "case_key": case_key(case),
+        "case_key": reference_key(case),
         "case_json": case.to_dict(),
         "pyelastica_version": version("pyelastica"),
         "numpy_version": version("numpy"),
