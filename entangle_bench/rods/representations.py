@@ -7,7 +7,7 @@
   G J / ds while bending stays E I / ds (needs G J <= E I, i.e. nu >= 0; at nu = 0 no hinge is needed).
 * `ball_isotropic`: the same builder without the hinges (`FilamentParams.twist_hinge = False`), the
   harness filament before the hinge: one isotropic spring per ball joint, so twist stiffness E I / ds
-  instead of G J / ds. Kept for comparison: it is 5-15 % of L off on curled rods hanging with the curl
+  instead of G J / ds. Kept for comparison: it is 3-29 % of L off on curled rods hanging with the curl
   plane tilted against gravity.
 * `cable`: MuJoCo's composite cable (`<composite type="cable">`) with the first-party
   `mujoco.elasticity.cable` plugin (config `twist` = G and `bend` = E in Pa; the plugin takes J and I from
