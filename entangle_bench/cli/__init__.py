@@ -19,6 +19,7 @@ SUBCOMMANDS: dict[str, str] = {
     "objects": "objects",
     "rod": "rod",
     "compare": "compare",
+    "references": "references",
     "describe": "describe",
 }
 

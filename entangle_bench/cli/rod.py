@@ -8,7 +8,7 @@ from pathlib import Path
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
 from entangle_bench.rods.case import load_case
 from entangle_bench.rods.elastica_engine import solve_elastica
-from entangle_bench.rods.representations import REPRESENTATIONS, solve_representation
+from entangle_bench.rods.representations import DEFAULT_REPRESENTATION, REPRESENTATIONS, solve_representation
 
 #: PyElastica elements when --segments is not given.
 DEFAULT_ELEMENTS = 50
@@ -34,7 +34,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help=f"MuJoCo segments (default: the preset's) or PyElastica elements (default {DEFAULT_ELEMENTS})",
     )
     parser.add_argument(
-        "--representation", choices=REPRESENTATIONS, default="ball",
+        "--representation", choices=REPRESENTATIONS, default=DEFAULT_REPRESENTATION,
         help="MuJoCo filament representation (default ball: the harness filament)",
     )
     parser.add_argument("--points", type=int, default=201, help="centerline points (default 201)")

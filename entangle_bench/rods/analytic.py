@@ -168,6 +168,20 @@ def planar_plane(case: RodCase) -> tuple[np.ndarray, float, float, float] | None
     return e_y, float(bend @ e_y), float(g @ t), float(g @ e_y)
 
 
+def mirror_normal(case: RodCase) -> np.ndarray | None:
+    """Unit normal of the case's mirror plane when it is planar (see `planar_plane`), else None.
+
+    The plane passes through the base point and holds the base tangent, gravity and the rest bending
+    direction; reflecting a planar case's rod across it gives the same case, so equilibria that leave the
+    plane come in mirror pairs.
+    """
+    plane = planar_plane(case)
+    if plane is None:
+        return None
+    normal = np.cross(case.base_frame[:, 0], plane[0])
+    return normal / np.linalg.norm(normal)
+
+
 def _ramp(solve_at, stage: str, x: np.ndarray, y: np.ndarray, first_step: float):
     """Continue `solve_at(lam, x, y)` (a solve_bvp result) from lam = 0 to 1; return (x, y, sol).
 

@@ -32,6 +32,7 @@ Rod results hold the computed equilibrium centerline at uniform arclength from b
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -285,6 +286,12 @@ class RodCase:
     def darboux(self) -> np.ndarray:
         """Rest Darboux vector (tau, k1, k2) in the material frame (t, d1, d2), 1/m."""
         return np.array([self.intrinsic_twist, *self.intrinsic_curvature], dtype=float)
+
+
+def case_key(case: RodCase) -> str:
+    """Short hash (hex) of the case's content: stored and cached results are valid for identical cases only."""
+    text = json.dumps(case.to_dict(), sort_keys=True)
+    return hashlib.sha1(text.encode()).hexdigest()[:12]
 
 
 def load_case(path: str | os.PathLike[str]) -> RodCase:

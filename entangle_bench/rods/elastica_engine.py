@@ -28,6 +28,12 @@ simulated time (then settings["converged"] is False). With rest curvature or twi
 starts by default from its exact discrete rest shape (zero elastic energy): this is already the
 equilibrium in zero gravity, and gravity then deforms it from there.
 
+Equilibrium branch: a case that is symmetric about its bending plane (planar rest shape, gravity in
+that plane) keeps the symmetry exactly in these dynamics, so it can settle on an unstable planar
+equilibrium. `perturbation` (rad) starts from a shape turned out of the bending plane by that angle
+over the length (the discrete rest shape with an extra curvature perturbation / L perpendicular to
+the rest bending direction); the relaxation then leaves a planar saddle the way a physical rod does.
+
 Wall time: `wall_time_s` covers building and stepping. PyElastica's numba kernels are compiled
 on first use and cached on disk; the very first call on a machine adds about 30 s.
 """
@@ -35,6 +41,7 @@ on first use and cached on disk; the very first call on a machine adds about 30 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import time
@@ -108,15 +115,32 @@ def stable_time_step(case: RodCase, n_elements: int, shear_factor: float, cfl: f
     return cfl * h / math.sqrt(shear_factor * case.youngs_modulus / case.density)
 
 
+def perturbed_start(case: RodCase, perturbation: float) -> RodCase:
+    """`case` with extra curvature `perturbation` / L (rad over the length) out of its bending plane.
+
+    The extra curvature is perpendicular to the rest curvature (k1, k2) in the (d1, d2) plane, or along d1
+    for a straight rod; only its discrete rest shape is used, as a start shape.
+    """
+    k1, k2 = case.intrinsic_curvature
+    kappa = math.hypot(k1, k2)
+    direction = (-k2 / kappa, k1 / kappa) if kappa > 0.0 else (1.0, 0.0)
+    extra = perturbation / case.length
+    return dataclasses.replace(
+        case, intrinsic_curvature=(k1 + extra * direction[0], k2 + extra * direction[1])
+    )
+
+
 def build_rod(
     case: RodCase,
     n_elements: int,
     shear_factor: float = 20.0,
     initial: Literal["straight", "rest"] = "straight",
+    perturbation: float = 0.0,
 ) -> CosseratRod:
     """PyElastica rod for `case`: clamp-midpoint placement, stiffened shear, rest curvature.
 
-    `initial` "straight" lays it along the base tangent, "rest" in its discrete rest shape.
+    `initial` "straight" lays it along the base tangent, "rest" in its discrete rest shape; a non-zero
+    `perturbation` (rad) starts from the rest shape of `perturbed_start(case, perturbation)` instead.
     """
     h = case.length / (n_elements - 0.5)
     t0 = np.asarray(case.base_direction, dtype=float)
@@ -138,7 +162,11 @@ def build_rod(
     rod.inv_mass_second_moment_of_inertia[...] /= shear_factor
     k1, k2 = case.intrinsic_curvature
     rod.rest_kappa[...] = np.array([k1, k2, case.intrinsic_twist])[:, None]
-    if initial == "rest":
+    if perturbation != 0.0:
+        positions, directors = discrete_rest_shape(perturbed_start(case, perturbation), n_elements)
+        rod.position_collection[...] = positions
+        rod.director_collection[...] = directors
+    elif initial == "rest":
         positions, directors = discrete_rest_shape(case, n_elements)
         rod.position_collection[...] = positions
         rod.director_collection[...] = directors
@@ -173,13 +201,16 @@ def solve_elastica(
     settle_tol: float = 1e-6,
     max_time_s: float | None = None,
     initial: Literal["auto", "straight", "rest"] = "auto",
+    perturbation: float = 0.0,
     progress: bool = False,
 ) -> RodResult:
     """Relax `case` to equilibrium with PyElastica; return the centerline (n_output, 3) in m.
 
     `damping_ratio` scales the damping constant 2 omega_slow; `settle_tol` is the stopping tolerance
     as a fraction of L; `max_time_s` (simulated s) defaults to 60 / omega_slow; `initial` "auto"
-    starts from the discrete rest shape when the case has rest curvature or twist, else straight.
+    starts from the discrete rest shape when the case has rest curvature or twist, else straight;
+    a non-zero `perturbation` (rad) starts instead from the rest shape turned out of its bending plane
+    (`perturbed_start`; recorded as initial "perturbed_rest").
     """
     check_range("n_elements", n_elements, 4, None)
     check_range("n_output", n_output, 2, None)
@@ -188,8 +219,11 @@ def solve_elastica(
     check_range("damping_ratio", damping_ratio, 0.0, None, low_open=True)
     check_range("settle_tol", settle_tol, 0.0, None, low_open=True)
     check_choice("initial", initial, ("auto", "straight", "rest"))
+    check_range("perturbation", perturbation, -1.0, 1.0)
     curved = any(case.intrinsic_curvature) or case.intrinsic_twist != 0.0
     start_shape = ("rest" if curved else "straight") if initial == "auto" else initial
+    if perturbation != 0.0:
+        start_shape = "rest"  # of the perturbed case: `build_rod`
     omega_slow = slowest_frequency(case)
     if max_time_s is None:
         max_time_s = 60.0 / omega_slow
@@ -201,7 +235,7 @@ def solve_elastica(
 
     wall_start = time.perf_counter()
     sim = _Simulator()
-    rod = build_rod(case, n_elements, shear_factor, start_shape)
+    rod = build_rod(case, n_elements, shear_factor, start_shape, perturbation)
     sim.append(rod)
     sim.constrain(rod).using(
         OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,)
@@ -250,7 +284,8 @@ def solve_elastica(
         "dt_s": dt,
         "shear_factor": shear_factor,
         "damping_per_s": nu,
-        "initial": start_shape,
+        "initial": start_shape if perturbation == 0.0 else "perturbed_rest",
+        "perturbation_rad": perturbation,
         "steps": steps,
         "sim_time_s": sim_time,
         "converged": converged,

@@ -1,15 +1,16 @@
-"""The harness's own filament (ball-joint chain, `entangle_bench.filament`) as a clamped rod, and the relaxation
-that brings any rod representation to a stable static equilibrium (`representations.solve_representation`).
+"""The harness's own filament (`entangle_bench.filament`) as a clamped rod, and the relaxation that brings any rod
+representation to a stable static equilibrium (`representations.solve_representation`).
 
-The rod is built with exactly the builder the gripper uses, clamped at the case's base frame, started in its
-rest shape, and relaxed with dynamic relaxation (kinetic damping) until every body is at rest. It has
+The rod is built with exactly the builder the gripper uses (joint model "hinges": twist, out-of-plane and
+in-plane hinges per segment; "ball": one isotropic ball joint), clamped at the case's base frame, started in
+its rest shape, and relaxed with dynamic relaxation (kinetic damping) until every body is at rest. It has
 nothing to touch, so it compiles with collision off.
 
 Equilibrium branch: dynamic relaxation preserves symmetry, so a planar rod started exactly in its plane can
 come to rest on an unstable planar equilibrium (a saddle: curl_hanging with 14-16 or 32 segments stops on a
 branch 0.1 L away from the stable one, with a force residual of 1e-11 N m). `relax_to_stable_equilibrium`
 therefore checks every rest state for stability (the eigenvalues of the finite-difference stiffness matrix)
-and pushes a saddle along its unstable mode before relaxing again.
+and pushes a saddle along its unstable mode, both ways, keeping the lower-energy rest state.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import mujoco
 import numpy as np
 
 from entangle_bench.effects import NO_CONTACT, apply_effects
-from entangle_bench.filament import ChainJoints, FilamentParams, add_filament
+from entangle_bench.filament import ChainJoints, FilamentParams, JointModel, add_filament
 from entangle_bench.presets import Numerics
 from entangle_bench.rods.case import RodCase
 from entangle_bench.scene import step_until_rest
@@ -37,9 +38,15 @@ MAX_STABILITY_CHECKS = 4
 
 
 def filament_params(
-    case: RodCase, n_segments: int, damping_time_s: float = STATICS_DAMPING_TIME_S
+    case: RodCase,
+    n_segments: int,
+    damping_time_s: float = STATICS_DAMPING_TIME_S,
+    joints: JointModel | None = None,
 ) -> FilamentParams:
-    """A solid filament with the case's geometry and material; joint damping time `damping_time_s` (s)."""
+    """A solid filament with the case's geometry and material; joint damping time `damping_time_s` (s).
+
+    `joints`: the joint model ("hinges" or "ball"); None keeps the filament default.
+    """
     return FilamentParams(
         length_m=case.length,
         outer_radius_m=case.radius,
@@ -50,6 +57,7 @@ def filament_params(
         density_kg_m3=case.density,
         n_segments=n_segments,
         damping_time_s=damping_time_s,
+        **({} if joints is None else {"joints": joints}),
     )
 
 
@@ -58,11 +66,13 @@ def build_rod(
     n_segments: int,
     numerics: Numerics,
     damping_time_s: float = STATICS_DAMPING_TIME_S,
+    joints: JointModel | None = None,
 ) -> tuple[mujoco.MjModel, ChainJoints, list[str]]:
     """Compile the clamped rod in its rest shape; return the model, its joints and body names.
 
     `damping_time_s` (s) is the joints' Kelvin-Voigt relaxation time (statics default: 0.2 s). The springs'
-    references hold the case's rest shape; the state is still straight.
+    references hold the case's rest shape; the state is still straight. `joints` picks the joint model
+    ("hinges" or "ball"; default: the filament default).
     """
     spec = mujoco.MjSpec()
     numerics.apply(spec)
@@ -71,7 +81,7 @@ def build_rod(
     mujoco.mju_mat2Quat(quat, case.base_frame.flatten())
     handle = add_filament(
         spec.worldbody,
-        filament_params(case, n_segments, damping_time_s),
+        filament_params(case, n_segments, damping_time_s, joints),
         0,
         pos=case.base_position,
         quat=tuple(quat),
@@ -79,9 +89,9 @@ def build_rod(
     )
     apply_effects(spec, NO_CONTACT, {}, [list(handle.body_names)], np.zeros((1, 2)), case.length)
     model = spec.compile()
-    joints = ChainJoints.bind(model, [handle])
-    joints.set_rest(model, case.darboux, case.length / n_segments, np.array([0.0, 0.0, 1.0]))
-    return model, joints, list(handle.body_names)
+    chain = ChainJoints.bind(model, [handle])
+    chain.set_rest(model, case.darboux, case.length / n_segments, np.array([0.0, 0.0, 1.0]))
+    return model, chain, list(handle.body_names)
 
 
 def stiffness_matrix(model: mujoco.MjModel, data: mujoco.MjData, step: float = 1e-6) -> np.ndarray:

@@ -1,13 +1,11 @@
-"""Alternative MuJoCo filament representations, for the accuracy-time study only.
+"""MuJoCo filament representations, for the accuracy-time study and the rod comparison.
 
-The harness filament is `ball` (`entangle_bench.filament`: capsule chain, one isotropic ball-joint spring
-per vertex, so its twist stiffness is E I / ds instead of G J / ds). The alternatives:
-
-* `ball_twist`: the harness chain plus, in each body, a twist hinge about the tangent placed in series with
-  the ball joint. Springs in series add compliances, so a hinge of stiffness
-  k_h = 1 / (ds (1 / GJ - 1 / EI)) makes the twist stiffness G J / ds while bending stays E I / ds (exact
-  for small per-joint twist; needs G J < E I, i.e. nu > 0; for nu = 0 it is the plain chain). Plugin-free,
-  one more degree of freedom per segment.
+* `hinges`: the harness filament (`entangle_bench.filament`, built by `mujoco_engine.build_rod`) with joint
+  model "hinges": a capsule chain with three hinges per vertex whose axes are the rest material triad at the
+  vertex (twist about the mid-tangent G J / ds, out-of-plane E I_side / ds, in-plane E I_bend / ds).
+* `ball`: the same builder with joint model "ball": one isotropic ball-joint spring per vertex, so twist
+  stiffness E I / ds instead of G J / ds. It is 3-29 % of L off on curled rods hanging with the curl plane
+  tilted against gravity.
 * `cable`: MuJoCo's composite cable (`<composite type="cable">`) with the first-party
   `mujoco.elasticity.cable` plugin (config `twist` = G and `bend` = E in Pa; the plugin takes J and I from
   the capsule radius), a discrete Cosserat rod with anisotropic bending/twist stiffness (MuJoCo
@@ -17,7 +15,7 @@ per vertex, so its twist stiffness is E I / ds instead of G J / ds). The alterna
   inextensibility, integrated with the `discrete` integrator. It needs a straight reference configuration,
   so it cannot represent rest curvature or twist, and its vertex spacing must exceed the diameter.
 
-Clamp placement: `ball` and `ball_twist` clamp with the half-length joint at the base (second order, see
+Clamp placement: `hinges` and `ball` clamp with the half-length joint at the base (second order, see
 `filament.py`). `cable` and `flex1d` fix a first segment (body or edge) whose midpoint is the base point and
 whose direction is the base tangent, as the PyElastica reference does; the segment length is then
 h = L / (n - 1/2). Every representation is brought to equilibrium with the same dynamic relaxation
@@ -36,7 +34,7 @@ import numpy as np
 
 from entangle_bench.config import check_range
 from entangle_bench.errors import ParameterError
-from entangle_bench.filament import ChainJoints, rest_quaternions, rest_rotation_quat
+from entangle_bench.filament import ChainJoints, FilamentParams, JointModel, rest_rotation_quat
 from entangle_bench.presets import DEFAULT_PRESET, Numerics, get_preset
 from entangle_bench.registry import Registry
 from entangle_bench.rods import mujoco_engine
@@ -46,6 +44,9 @@ from entangle_bench.scene import step_until_rest
 #: (case, n_segments, numerics, damping_time_s) -> RodModel, by representation name.
 Builder = Callable[[RodCase, int, Numerics, float], "RodModel"]
 REPRESENTATIONS: Registry[Builder] = Registry("representation")
+
+#: The representation of the harness filament as configured by default (`FilamentParams.joints`).
+DEFAULT_REPRESENTATION = FilamentParams().joints
 
 
 @dataclass
@@ -62,7 +63,7 @@ class RodModel:
     """The integrator actually used (`flex1d` always uses `discrete`)."""
     joints: ChainJoints | None = None
     """The harness chain's joints, whose springs' references set the rest shape (the actuation); None where
-    the rest shape is fixed when the model is made (`cable`, `flex1d`, `ball_twist`)."""
+    the rest shape is fixed when the model is made (`cable`, `flex1d`)."""
 
 
 def _base_quat(case: RodCase) -> tuple[float, float, float, float]:
@@ -91,93 +92,29 @@ def _chain_vertices(ids: list[int], ds: float, skip_half_first: bool) -> Callabl
     return vertices
 
 
-@REPRESENTATIONS.register("ball", tags=("harness",))
-def _build_ball(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
-    """The harness filament (`mujoco_engine.build_rod`) in its rest shape."""
-    model, joints, bodies = mujoco_engine.build_rod(case, n, numerics, damping_time_s)
+def _build_harness(
+    case: RodCase, n: int, numerics: Numerics, damping_time_s: float, joints: JointModel
+) -> RodModel:
+    """The harness filament (`mujoco_engine.build_rod`) with the given joint model, in its rest shape."""
+    model, chain, bodies = mujoco_engine.build_rod(case, n, numerics, damping_time_s, joints)
     data = mujoco.MjData(model)
-    data.qpos[joints.qpos] = model.qpos_spring[joints.qpos]
+    data.qpos[chain.qpos] = model.qpos_spring[chain.qpos]
     mujoco.mj_forward(model, data)
     ids = [model.body(b).id for b in bodies]
     vertices = _chain_vertices(ids, case.length / n, False)
-    return RodModel(model, data, vertices, "ball", n, numerics.integrator, joints)
+    return RodModel(model, data, vertices, joints, n, numerics.integrator, chain)
 
 
-def series_twist_stiffness(case: RodCase, ds: float) -> float:
-    """Stiffness (N m/rad) of the twist hinge in series with a ball joint of E I / ds: 1/(ds (1/GJ - 1/EI))."""
-    gj, ei = case.twist_stiffness, case.bending_stiffness
-    if gj > ei * (1.0 + 1e-12):
-        raise ParameterError(
-            f"ball_twist needs G J <= E I (poisson_ratio >= 0); case {case.name!r} has "
-            f"poisson_ratio = {case.poisson_ratio}"
-        )
-    if gj >= ei:
-        return float("inf")
-    return 1.0 / (ds * (1.0 / gj - 1.0 / ei))
+@REPRESENTATIONS.register("hinges", tags=("harness",))
+def _build_hinges(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
+    """The harness filament with twist, out-of-plane and in-plane hinges per segment (twist stiffness GJ)."""
+    return _build_harness(case, n, numerics, damping_time_s, "hinges")
 
 
-@REPRESENTATIONS.register("ball_twist")
-def _build_ball_twist(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
-    """Harness-like ball chain with a series twist hinge in every body (see module docstring)."""
-    ds = case.length / n
-    k_bend = case.bending_stiffness / ds
-    k_twist = series_twist_stiffness(case, ds)
-    mass, i_axial, i_trans = _segment_inertia(case, ds)
-    armature = (numerics.twist_armature_scale - 1.0) * i_axial
-    spec = mujoco.MjSpec()
-    numerics.apply(spec)
-    spec.option.gravity = case.gravity
-    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    body = spec.worldbody
-    names = []
-    for j in range(n):
-        scale = 2.0 if j == 0 else 1.0
-        body = body.add_body(
-            name=f"b{j:03d}",
-            pos=case.base_position if j == 0 else (ds, 0.0, 0.0),
-            quat=_base_quat(case) if j == 0 else (1.0, 0.0, 0.0, 0.0),
-            mass=mass,
-            ipos=(ds / 2, 0.0, 0.0),
-            inertia=(i_axial, i_trans, i_trans),
-            explicitinertial=True,
-        )
-        if np.isfinite(k_twist):
-            # Twist about the rest mid-tangent between the two segments: half the rest rotation.
-            half = rest_rotation_quat(case.darboux, 0.25 * ds if j == 0 else 0.5 * ds)
-            axis = np.empty(3)
-            mujoco.mju_rotVecQuat(axis, np.array([1.0, 0.0, 0.0]), half)
-            body.add_joint(
-                name=f"t{j:03d}",
-                type=mujoco.mjtJoint.mjJNT_HINGE,
-                axis=tuple(axis),
-                stiffness=scale * k_twist,
-                damping=scale * k_twist * damping_time_s,
-                armature=max(armature, i_axial),
-            )
-        body.add_joint(
-            name=f"j{j:03d}",
-            type=mujoco.mjtJoint.mjJNT_BALL,
-            stiffness=scale * k_bend,
-            damping=scale * k_bend * damping_time_s,
-            armature=armature,
-        )
-        body.add_geom(
-            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-            fromto=(0.0, 0.0, 0.0, ds, 0.0, 0.0),
-            size=(case.radius, 0.0, 0.0),
-            mass=0.0,
-        )
-        names.append(f"b{j:03d}")
-    model = spec.compile()
-    adr = np.array([model.joint(f"j{j:03d}").qposadr[0] for j in range(n)])[:, None] + np.arange(4)
-    rest = rest_quaternions(n, ds, case.darboux)
-    model.qpos_spring[adr] = rest
-    data = mujoco.MjData(model)
-    data.qpos[adr] = rest
-    mujoco.mj_forward(model, data)
-    ids = [model.body(name).id for name in names]
-    vertices = _chain_vertices(ids, ds, False)
-    return RodModel(model, data, vertices, "ball_twist", n, numerics.integrator)
+@REPRESENTATIONS.register("ball", tags=("harness",))
+def _build_ball(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
+    """The harness filament with one isotropic ball joint per segment (twist stiffness E I, 1 + nu too stiff)."""
+    return _build_harness(case, n, numerics, damping_time_s, "ball")
 
 
 def _cable_xml(case: RodCase, n: int, h: float, damping: float) -> str:

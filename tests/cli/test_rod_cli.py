@@ -84,6 +84,28 @@ def test_compare_one_case_writes_table(tmp_path, capsys):
     assert row["mujoco_wall_s"] > 0.0 and row["pyelastica_wall_s"] > 0.0
 
 
+def test_compare_uses_stored_references(tmp_path, capsys):
+    # A multi-turn coil: the stored PyElastica runs (100 and 200 elements) are read, not rerun, and the 3D
+    # boundary-value solver is not attempted.
+    cases = tmp_path / "cases"
+    cases.mkdir()
+    name = "coil12_twisted_hanging"
+    shutil.copy(CASE_DIR / f"{name}.json", cases)
+    (cases / "references").mkdir()
+    for n in (100, 200):
+        shutil.copy(CASE_DIR / "references" / f"{name}_pyelastica_{n}.npz", cases / "references")
+    out = tmp_path / "out"
+    assert main(["compare", "--cases", str(cases), "--out", str(out), "--no-progress"]) == 0
+    assert "pyelastica_200" in capsys.readouterr().out
+    row = pd.read_csv(out / "compare.csv").iloc[0]
+    assert row["reference"] == "pyelastica_200" and bool(row["pyelastica_stored"])
+    assert (row["pyelastica_coarse_elements"], row["pyelastica_elements"]) == (100, 200)
+    assert row["mujoco_vs_reference_max"] == pytest.approx(1.96e-2, rel=0.05)  # measured 1.96e-2
+    assert row["mujoco_vs_reference_max"] == row["mujoco_vs_pyelastica_max"]
+    assert row["pyelastica_coarse_vs_fine_max"] == pytest.approx(1.72e-4, rel=0.01)
+    assert "not attempted" in row["note"] and np.isnan(row["mujoco_vs_analytic_max"])
+
+
 def test_compare_empty_folder_exits_2(tmp_path, capsys):
     assert main(["compare", "--cases", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
     assert "no rod case files" in capsys.readouterr().err

@@ -44,7 +44,7 @@ def _write(tmp_path: Path, data: object) -> Path:
 
 
 def test_case_files_load_and_are_described():
-    assert len(CASE_FILES) == 7
+    assert len(CASE_FILES) == 13
     for path in CASE_FILES:
         case = load_case(path)
         assert case.name == path.stem

@@ -1,4 +1,5 @@
-"""The harness filament (ball-joint chain) at static equilibrium against analytic, BVP and PyElastica answers.
+"""The harness filament at static equilibrium against analytic, BVP and PyElastica answers: joint model "hinges"
+(twist, out-of-plane and in-plane hinges per segment) and "ball" (one isotropic ball joint per segment).
 
 Errors are max |x - x_ref| / L over the centerline at uniform arclength; measured values (in comments) were
 taken with the presets of entangle_bench/presets.py.
@@ -17,7 +18,6 @@ from entangle_bench.errors import ParameterError
 from entangle_bench.filament import rest_hinges, rest_rotation_quat
 from entangle_bench.presets import get_preset
 from entangle_bench.rods import analytic as an
-from entangle_bench.rods import mujoco_engine
 from entangle_bench.rods.case import centerline_error, load_case
 from entangle_bench.rods.elastica_engine import solve_elastica
 from entangle_bench.rods.mujoco_engine import build_rod, stiffness_matrix
@@ -71,13 +71,22 @@ def test_chain_converges_at_second_order_on_the_arc():
 
 
 def test_hanging_curl_leaves_the_unstable_planar_branch():
-    # 16 segments used to stop on a saddle 0.1 L from the BVP answer; with the stability check it reaches
-    # the stable branch (measured 6.0e-3) and records that it had to leave a saddle.
+    # The plain ball chain at 16 segments used to stop on a saddle 0.1 L from the BVP answer; with the stability
+    # check it reaches the stable branch (measured 6.0e-3) and records that it had to leave a saddle. The
+    # hinge chain (default) relaxes along another path that visits no saddle, to the same planar equilibrium
+    # (twist plays no part in a planar shape).
     case = _case("curl_hanging")
-    result = solve_representation(case, "ball", preset="balanced")
-    error, _ = centerline_error(result.centerline, an.planar_elastica_centerline(case), case.length)
+    exact = an.planar_elastica_centerline(case)
+    isotropic = solve_representation(case, "ball", preset="balanced")
+    error, _ = centerline_error(isotropic.centerline, exact, case.length)
     assert error < 0.012
-    assert result.settings["saddles_left"] >= 1
+    assert isotropic.settings["saddles_left"] >= 1
+    assert isotropic.settings["representation"] == "ball"
+    # The hinge chain's springs are nonlinear in large per-joint deviations: at 16 segments it settles 4.4e-2 L
+    # away (another equilibrium of the coarse chain); from 20 segments on it matches the ball chain.
+    hinge = solve_representation(case, "hinges", 24)
+    assert centerline_error(hinge.centerline, exact, case.length)[0] < 0.004
+    assert centerline_error(hinge.centerline, solve_representation(case, "ball", 24).centerline, case.length)[0] < 1e-4
 
 
 def test_isotropic_twist_spring_explains_the_sideways_curl_error():
@@ -90,19 +99,23 @@ def test_isotropic_twist_spring_explains_the_sideways_curl_error():
         an.kirchhoff_centerline(isotropic),
         case.length,
     )
+    exact = an.kirchhoff_centerline(case)
     error_real, _ = centerline_error(
-        solve_representation(case, "ball", 32).centerline, an.kirchhoff_centerline(case), case.length
+        solve_representation(case, "ball", 32).centerline, exact, case.length
     )
     assert error_iso < 1e-3
     assert error_real > 0.03
+    # The hinge chain's twist hinge gives G J: measured 3.2e-3 at 32 segments (first order in 3D).
+    error_hinge, _ = centerline_error(solve_representation(case, "hinges", 32).centerline, exact, case.length)
+    assert error_hinge < 4e-3
 
 
 def test_stiffness_matrix_of_straight_rod_is_the_joint_stiffness():
-    # Zero gravity, straight rest shape: the generalized stiffness is diagonal with 2 EI/ds at the clamp
-    # and EI/ds elsewhere, for all three rotational dofs (isotropic ball springs).
+    # Zero gravity, straight rest shape, plain ball chain: the generalized stiffness is diagonal with 2 EI/ds at
+    # the clamp and EI/ds elsewhere, for all three rotational dofs (isotropic ball springs).
     case = dataclasses.replace(_case("soft_cantilever"), gravity=(0.0, 0.0, 0.0))
     n = 5
-    model, _, _ = build_rod(case, n, get_preset("balanced").numerics)
+    model, _, _ = build_rod(case, n, get_preset("balanced").numerics, joints="ball")
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     k = case.bending_stiffness / (case.length / n)
@@ -116,23 +129,12 @@ def test_unsettled_rod_raises_naming_the_case():
         solve_representation(case, "ball", max_time_s=0.05)
 
 
-def _with_hinges(monkeypatch):
-    """Make the rod engine build the harness filament with the hinge joint model."""
-    original = mujoco_engine.filament_params
-    monkeypatch.setattr(
-        mujoco_engine,
-        "filament_params",
-        lambda *args, **kwargs: dataclasses.replace(original(*args, **kwargs), joints="hinges"),
-    )
-
-
-def test_hinge_chain_stiffness_is_the_anisotropic_rod_stiffness(monkeypatch):
+def test_hinge_chain_stiffness_is_the_anisotropic_rod_stiffness():
     # Straight rest shape, zero gravity: per segment twist GJ/ds, out-of-plane and in-plane bending EI/ds
     # (a solid rod has I_side = I_bend), doubled at the clamp.
-    _with_hinges(monkeypatch)
     case = dataclasses.replace(_case("soft_cantilever"), gravity=(0.0, 0.0, 0.0))
     n = 5
-    model, _, _ = build_rod(case, n, get_preset("balanced").numerics)
+    model, _, _ = build_rod(case, n, get_preset("balanced").numerics, joints="hinges")
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     ds = case.length / n
@@ -141,14 +143,13 @@ def test_hinge_chain_stiffness_is_the_anisotropic_rod_stiffness(monkeypatch):
     np.testing.assert_allclose(stiffness_matrix(model, data), expected, rtol=1e-6, atol=1e-6 * per_joint.max())
 
 
-def test_hinge_chain_fixes_the_sideways_curl(monkeypatch):
+def test_hinge_chain_fixes_the_sideways_curl():
     # The ball chain is 6.0e-2 L off at any resolution (twist stiffness EI); the hinge chain has GJ:
     # measured 6.7e-3 L at 16 and 2.8e-3 L at 40 segments (first order in 3D).
-    _with_hinges(monkeypatch)
     case = _case("curl_sideways_gravity")
     reference = an.reference_centerline(case)[0]
     errors = [
-        centerline_error(solve_representation(case, "ball", n).centerline, reference, case.length)[0]
+        centerline_error(solve_representation(case, "hinges", n).centerline, reference, case.length)[0]
         for n in (16, 40)
     ]
     assert errors[1] < 4e-3

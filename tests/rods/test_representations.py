@@ -1,8 +1,8 @@
-"""Alternative MuJoCo rod representations (study only) against the analytic and BVP references."""
+"""MuJoCo rod representations (the harness filament with joints `hinges` or `ball`, `cable`, `flex1d`) against the
+analytic and BVP references."""
 
 from __future__ import annotations
 
-import dataclasses
 from functools import cache
 from pathlib import Path
 
@@ -11,7 +11,7 @@ import pytest
 from entangle_bench.errors import ParameterError, UnknownNameError
 from entangle_bench.rods import analytic as an
 from entangle_bench.rods.case import centerline_error, load_case
-from entangle_bench.rods.representations import series_twist_stiffness, solve_representation
+from entangle_bench.rods.representations import REPRESENTATIONS, solve_representation
 
 CASE_DIR = Path(__file__).resolve().parents[2] / "tasks" / "rod_cases"
 
@@ -31,24 +31,8 @@ def _error(case, representation, n):
     return centerline_error(result.centerline, reference, case.length)[0]
 
 
-def test_series_twist_hinge_gives_gj_compliance():
-    # Springs in series: ds / GJ = 1 / k_hinge + ds / EI.
-    case = _case("curl_sideways_gravity")
-    ds = 0.01
-    k = series_twist_stiffness(case, ds)
-    assert 1.0 / k + ds / case.bending_stiffness == pytest.approx(ds / case.twist_stiffness, rel=1e-12)
-    assert series_twist_stiffness(dataclasses.replace(case, poisson_ratio=0.0), ds) == float("inf")
-    with pytest.raises(ParameterError, match="poisson_ratio"):
-        series_twist_stiffness(dataclasses.replace(case, poisson_ratio=-0.2), ds)
-
-
-def test_twist_hinge_fixes_sideways_curl_at_second_order():
-    # The harness chain is 6e-2 L off (isotropic twist); with the series twist hinge about the rest
-    # mid-tangent: 6.2e-3 at 8 and 1.5e-3 at 16 segments.
-    case = _case("curl_sideways_gravity")
-    coarse, fine = _error(case, "ball_twist", 8), _error(case, "ball_twist", 16)
-    assert fine < 3e-3
-    assert 3.0 < coarse / fine < 5.0
+def test_representation_names():
+    assert REPRESENTATIONS.names() == ["ball", "cable", "flex1d", "hinges"]
 
 
 def test_cable_plugin_matches_soft_cantilever():
@@ -66,5 +50,5 @@ def test_flex1d_bends_like_the_elastica_and_refuses_curved_cases():
 
 
 def test_unknown_representation_is_rejected_listing_the_known_ones():
-    with pytest.raises(UnknownNameError, match="representation 'spaghetti'.*ball, ball_twist, cable, flex1d"):
+    with pytest.raises(UnknownNameError, match="representation 'spaghetti'.*ball, cable, flex1d, hinges"):
         solve_representation(_case("soft_cantilever"), "spaghetti", 8)
