@@ -45,6 +45,7 @@ from tqdm import tqdm
 
 from entangle_bench import effects as fx
 from entangle_bench import stability
+from entangle_bench.atomic import atomic_savefig
 from entangle_bench.filament import REFERENCE_COIL_RADIUS_M, FilamentParams
 from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import PRESETS
@@ -169,11 +170,8 @@ def plot_coil(frame: pd.DataFrame, path: Path) -> None:
 
 def _save(fig: plt.Figure, path: Path) -> None:
     """Save a figure as PNG atomically."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
+    atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
-    os.replace(tmp, path)
 
 
 def sweep(args: argparse.Namespace) -> pd.DataFrame:

@@ -12,7 +12,7 @@ from entangle_bench.errors import UnknownNameError
 from entangle_bench.metrics.stats import success_table
 from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
-from entangle_bench.results import TrialLog, atomic_write_csv
+from entangle_bench.results import TrialLog, atomic_write_csv, write_trials
 from entangle_bench.runner import TrialSpec, make_executor, run_trials
 from entangle_bench.stability import envelope_warnings
 from entangle_bench.suite import TASKS, resolve_config
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     rows = log.frame()
     wanted = {s.trial_id for s in specs}
     rows = rows[rows["trial_id"].isin(wanted)]
-    atomic_write_csv(rows, out / "trials.csv")
+    write_trials(rows, out)
     params = [c for c in rows.columns if c.startswith("param.")]
     summary = success_table(rows, ["condition"])
     atomic_write_csv(summary, out / "summary.csv")

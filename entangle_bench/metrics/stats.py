@@ -2,22 +2,20 @@
 
 from __future__ import annotations
 
-import math
-
 import pandas as pd
+from scipy.stats import binomtest
+
+from entangle_bench.errors import ParameterError
 
 
-def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (Wilson 1927); (0, 1) for zero trials."""
+def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (Wilson 1927; scipy); (0, 1) for zero trials."""
     if trials == 0:
         return 0.0, 1.0
     if not 0 <= successes <= trials:
-        raise ValueError(f"successes = {successes} must be between 0 and trials = {trials}")
-    p = successes / trials
-    denom = 1 + z**2 / trials
-    center = (p + z**2 / (2 * trials)) / denom
-    half = z * math.sqrt(p * (1 - p) / trials + z**2 / (4 * trials**2)) / denom
-    return max(0.0, center - half), min(1.0, center + half)
+        raise ParameterError(f"successes = {successes} must be between 0 and trials = {trials}")
+    ci = binomtest(successes, trials).proportion_ci(confidence_level=confidence, method="wilson")
+    return float(ci.low), float(ci.high)
 
 
 def success_table(rows: pd.DataFrame, by: list[str]) -> pd.DataFrame:
