@@ -15,7 +15,6 @@ import hashlib
 import importlib.metadata
 import json
 import multiprocessing
-import os
 import platform
 import sys
 import time
@@ -30,6 +29,7 @@ from dm_control.rl.control import PhysicsError
 from tqdm import tqdm
 
 import entangle_bench
+from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.config import to_flat_dict
 from entangle_bench.metrics.acn import acn_total
 from entangle_bench.metrics.contacts import contact_summary
@@ -37,6 +37,7 @@ from entangle_bench.metrics.local_fields import local_fields
 from entangle_bench.recording import TrialRecorder
 from entangle_bench.results import TrialLog
 from entangle_bench.suite.top_drape import TopDrapeConfig, make_environment, scripted_action
+from entangle_bench.viz import object_geometry, pack
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogTripped
 
 LOCAL_ACN_DIAMETER_M = 0.02
@@ -77,8 +78,8 @@ def versions() -> dict[str, str]:
 def snapshot(physics: Any, prefix: str, state_path: Path | None) -> dict[str, float]:
     """Entanglement and contact metrics of the current state, keys prefixed; saves the state if asked.
 
-    The saved .npz holds `curves` (F, n + 1, 3), `contact_points` (c, 3), `contact_kinds` (c,) and
-    `contact_forces_n` (c,): the input of scripts/plot_entanglement.py.
+    The saved .npz holds `curves` (F, n + 1, 3), `contact_points` (c, 3), `contact_kinds` (c,),
+    `contact_forces_n` (c,) and the object's parts (`viz.pack`): the input of scripts/plot_entanglement.py.
     """
     curves = physics.centerlines()
     fields = local_fields(curves, LOCAL_ACN_DIAMETER_M)
@@ -94,16 +95,14 @@ def snapshot(physics: Any, prefix: str, state_path: Path | None) -> dict[str, fl
     }
     row.update({f"{prefix}.contacts.{k}": v for k, v in contacts.counts.items()})
     if state_path is not None:
-        state_path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = state_path.with_name(f".{state_path.name}.tmp.npz")
-        np.savez_compressed(
-            tmp,
+        atomic_save_npz(
+            state_path,
             curves=curves,
             contact_points=contacts.points,
             contact_kinds=contacts.kinds,
             contact_forces_n=contacts.normal_forces_n,
+            **pack(object_geometry(physics.model.ptr, physics.data.ptr, scene.is_object_geom)),
         )
-        os.replace(tmp, state_path)
     return row
 
 
