@@ -121,7 +121,7 @@ class TrialVideo:
     `size` is (width, height) in pixels, even numbers; `backend` one of BACKENDS.
     """
 
-    def __init__(self, path: str | os.PathLike, period_s: float = 0.04, fps: float | None = None,
+    def __init__(self, path: str | os.PathLike, period_s: float = 0.1, fps: float | None = None,
                  size: tuple[int, int] = (640, 480), backend: str = "auto"):
         check_range("video period_s", period_s, 0.0, 10.0, low_open=True)
         check_choice("video backend", backend, list(BACKENDS))
