@@ -3,9 +3,9 @@
 `AtomicFile(path)` creates a temporary file beside `path` (same folder, so the rename cannot cross file
 systems) with the normal permissions of a new file (0666 minus the process umask, e.g. 0644, unlike
 `tempfile.mkstemp`'s 0600). Write it through `.tmp`, by name or by handle, then `commit()` fsyncs it and
-renames it onto `path` with `os.replace`; `discard()` removes it. As a context manager it commits on
-success and discards on any exception, KeyboardInterrupt included. The temporary name keeps the target's
-suffix, because numpy and matplotlib choose the format from it.
+renames it onto `path` with `os.replace`; `discard()` removes it; `close(keep)` does one of the two. As a
+context manager it commits on success and discards on any exception, KeyboardInterrupt included. The
+temporary name keeps the target's suffix, because numpy and matplotlib choose the format from it.
 """
 
 from __future__ import annotations
@@ -48,14 +48,18 @@ class AtomicFile:
         """Remove the temporary file."""
         self.tmp.unlink(missing_ok=True)
 
+    def close(self, keep: bool) -> None:
+        """Commit if `keep`, else discard."""
+        if keep:
+            self.commit()
+        else:
+            self.discard()
+
     def __enter__(self) -> AtomicFile:
         return self
 
     def __exit__(self, exc_type: Any, *_: Any) -> None:
-        if exc_type is None:
-            self.commit()
-        else:
-            self.discard()
+        self.close(keep=exc_type is None)
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:

@@ -223,10 +223,7 @@ class TrialRecorder:
         """Finish the file; keep it (atomic rename) only if `complete`."""
         self._writer.finish()
         self._handle.close()
-        if complete:
-            self._file.commit()
-        else:
-            self._file.discard()
+        self._file.close(keep=complete)
 
     def __enter__(self) -> TrialRecorder:
         return self

@@ -189,7 +189,4 @@ class TrialVideo:
         """Close the encoder and the renderer; keep the MP4 (atomic rename) only if `complete`."""
         self._encoder.close()
         self._frames.close()
-        if complete:
-            self._file.commit()
-        else:
-            self._file.discard()
+        self._file.close(keep=complete)

@@ -21,19 +21,27 @@ from entangle_bench.suite.top_drape import make_environment, scripted_action
 from entangle_bench.video import TrialVideo
 
 
-def run(config: Any, observers: list[Any]) -> tuple[float, float]:
-    """One trial with `observers`; return (simulated s, wall s)."""
-    env = make_environment(config, 0)
+def run(config: Any, observers: list[Any], seed: int = 0) -> Any:
+    """One scripted trial observed by `observers` (start after reset, step after every control step, finish
+    at the end, as the runner calls them); return the finished environment."""
+    env = make_environment(config, seed)
     step = env.reset()
-    start = time.perf_counter()
     for observer in observers:
         observer.start(env)
     while not step.last():
         step = env.step(scripted_action(config, env.task.schedule, env.physics.time()))
         for observer in observers:
             observer.step(env)
+    row = {"outcome": "failure" if env.task.outcome.finished else "", "sim_time_s": env.physics.time()}
     for observer in observers:
-        observer.finish({}, True)
+        observer.finish(row, True)
+    return env
+
+
+def timed(config: Any, observers: list[Any]) -> tuple[float, float]:
+    """(simulated s, wall s) of one observed trial."""
+    start = time.perf_counter()
+    env = run(config, observers)
     return env.physics.time(), time.perf_counter() - start
 
 
@@ -48,11 +56,11 @@ def main() -> None:
     config = resolve_config("eight_branch_tree", args.preset)
     print(f"machine: {platform.machine()} python {platform.python_version()}; default tree trial, {args.preset}")
     with tempfile.TemporaryDirectory() as folder:
-        sim_s, bare = run(config, [])
+        sim_s, bare = timed(config, [])
         recorder = TrialRecorder(Path(folder) / "t.mcap", period_s=args.record_period)
-        _, recorded = run(config, [recorder])
+        _, recorded = timed(config, [recorder])
         video = TrialVideo(Path(folder) / "t.mp4", period_s=args.frame_period, size=(width, height))
-        _, filmed = run(config, [video])
+        _, filmed = timed(config, [video])
         size = recorder.path.stat().st_size
         print("| run | wall (s) | extra per simulated s | output |")
         print("|---|---|---|---|")

@@ -1,10 +1,12 @@
 """Trials you can watch: a Foxglove MCAP recording and an MP4, both driven as observers of a short real trial."""
 
+import importlib.util
 import json
 import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import imageio_ffmpeg
 import numpy as np
@@ -18,10 +20,21 @@ from mcap_protobuf.decoder import DecoderFactory
 from entangle_bench.errors import ParameterError
 from entangle_bench.recording import TrialRecorder, read_recording
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
-from entangle_bench.suite.top_drape import make_environment, scripted_action
+from entangle_bench.suite.top_drape import make_environment
 from entangle_bench.video import TrialVideo
 
 FRAME_PERIOD_S = 0.25
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _load_bench():
+    spec = importlib.util.spec_from_file_location("bench_watch", ROOT / "scripts" / "bench_watch.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+BENCH = _load_bench()
 
 
 class Probe:
@@ -43,20 +56,8 @@ class Probe:
 
 
 def run_observed(task, observers, seed=0):
-    """The runner's loop in miniature: start after reset, step after every control step, finish at the end."""
-    config = resolve_config(task, "fast", SHORT_SEQUENCE)
-    env = make_environment(config, seed)
-    step = env.reset()
-    for observer in observers:
-        observer.start(env)
-    while not step.last():
-        step = env.step(scripted_action(config, env.task.schedule, env.physics.time()))
-        for observer in observers:
-            observer.step(env)
-    row = {"outcome": "failure", "failure_mode": "never_lifted", "sim_time_s": env.physics.time()}
-    for observer in observers:
-        observer.finish(row, True)
-    return env
+    """A short real trial of `task` driven by the benchmark's loop (the runner's calls in miniature)."""
+    return BENCH.run(resolve_config(task, "fast", SHORT_SEQUENCE), observers, seed)
 
 
 @pytest.fixture(scope="module")
@@ -194,7 +195,7 @@ def test_video_uses_mujoco_rendering_when_a_gl_context_can_be_made(tmp_path):
     path = tmp_path / "gl.mp4"
     env = dict(os.environ, MUJOCO_GL="egl")
     done = subprocess.run([sys.executable, "-c", GL_VIDEO.format(path=str(path))], env=env, capture_output=True,
-                          text=True, timeout=300, cwd=os.path.dirname(os.path.dirname(__file__)))
+                          text=True, timeout=300, cwd=ROOT)
     assert done.returncode == 0, done.stderr[-2000:]
     backend, frames, *_ = done.stdout.split()
     assert backend == "mujoco" or "MuJoCo renderer unavailable" in done.stdout
