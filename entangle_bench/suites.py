@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from entangle_bench import resources
 from entangle_bench.config import replace_path
 from entangle_bench.errors import EntangleBenchError, FileFormatError, ParameterError, UnknownNameError
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
@@ -36,7 +37,7 @@ from entangle_bench.registry import Registry
 from entangle_bench.runner import TrialSpec
 from entangle_bench.suite import TASKS, resolve_config
 
-SUITE_DIR = Path(__file__).resolve().parent.parent / "tasks"
+SUITE_DIR = resources.tasks_dir()
 TOP_KEYS = {"description", "trials", "preset", "seed", "conditions", "sweep"}
 CONDITION_KEYS = {"task", "label", "set"}
 

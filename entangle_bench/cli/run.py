@@ -9,11 +9,12 @@ import pandas as pd
 
 from entangle_bench import suites
 from entangle_bench.errors import UnknownNameError
+from entangle_bench.executors import make_executor
 from entangle_bench.metrics.stats import success_table
 from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import PRESETS
-from entangle_bench.results import TrialLog, atomic_write_csv
-from entangle_bench.runner import make_executor, run_trials
+from entangle_bench.results import TrialLog, atomic_write_csv, write_trials
+from entangle_bench.runner import Watch, run_trials
 from entangle_bench.stability import envelope_warnings
 from entangle_bench.suite.gripper_task import GripperTaskConfig
 
@@ -32,7 +33,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="first seed")
     p.add_argument("--retry-unstable", action="store_true", help="rerun unstable trials at dt/2")
     p.add_argument("--record", action="store_true",
-                   help="record every trial as MCAP under OUT/recordings (Foxglove-viewable)")
+                   help="record every trial as a Foxglove MCAP file under OUT/recordings")
+    p.add_argument("--video", action="store_true", help="write every trial as an MP4 under OUT/videos (headless)")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(run=run)
 
@@ -65,13 +67,12 @@ def run(args: argparse.Namespace) -> int:
     gripper_configs = [spec.config for spec in specs if isinstance(spec.config, GripperTaskConfig)]
     for text in dict.fromkeys(w for config in gripper_configs for w in envelope_warnings(config)):
         print(f"warning: {text}")
-    run_trials(
-        specs, log, make_executor(args.workers), args.retry_unstable, not args.no_progress, args.record
-    )
+    run_trials(specs, log, make_executor(args.workers), retry_unstable=args.retry_unstable,
+               progress=not args.no_progress, watch=Watch(record=args.record, video=args.video))
     rows = log.frame()
     wanted = {s.trial_id for s in specs}
     rows = rows[rows["trial_id"].isin(wanted)]
-    atomic_write_csv(rows, out / "trials.csv")
+    write_trials(rows, out)
     params = [c for c in rows.columns if c.startswith("param.")]
     summary = success_table(rows, ["condition"])
     atomic_write_csv(summary, out / "summary.csv")

@@ -35,7 +35,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -43,6 +42,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.config import check_range
 from entangle_bench.errors import FileFormatError, ParameterError
 
@@ -326,23 +326,14 @@ class RodResult:
 
     def save_npz(self, path: str | os.PathLike[str]) -> None:
         """Write the result to `path` (NPZ) atomically: temp file in the same folder, then rename."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                np.savez(
-                    handle,
-                    centerline=self.centerline,
-                    engine=np.array(self.engine),
-                    wall_time_s=np.array(self.wall_time_s),
-                    settings=np.array(json.dumps(self.settings, sort_keys=True)),
-                )
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        atomic_save_npz(
+            path,
+            compressed=False,
+            centerline=self.centerline,
+            engine=np.array(self.engine),
+            wall_time_s=np.array(self.wall_time_s),
+            settings=np.array(json.dumps(self.settings, sort_keys=True)),
+        )
 
     @classmethod
     def load_npz(cls, path: str | os.PathLike[str]) -> RodResult:

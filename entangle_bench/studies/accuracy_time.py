@@ -51,10 +51,11 @@ import pandas as pd  # noqa: E402
 from dm_control.rl import control  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from entangle_bench.atomic import atomic_savefig, atomic_write_text  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.filament import rest_quaternions  # noqa: E402
 from entangle_bench.presets import PRESETS, Numerics, Preset  # noqa: E402
-from entangle_bench.results import atomic_write_csv, atomic_write_text  # noqa: E402
+from entangle_bench.results import atomic_write_csv  # noqa: E402
 from entangle_bench.rods.case import RodCase, centerline_error, load_case  # noqa: E402
 from entangle_bench.rods.comparison import cached_result  # noqa: E402
 from entangle_bench.rods.representations import build_representation, solve_representation  # noqa: E402
@@ -511,11 +512,8 @@ def plot_pareto(rods: pd.DataFrame, trial: pd.DataFrame, path: Path, presets: di
                ylabel="|ACN - ACN of fine run| at end of hold (mean over seeds)",
                title="Top-drape trial against the fine-resolution run")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=120)
+    atomic_savefig(fig, path, dpi=120)
     plt.close(fig)
-    tmp.replace(path)
 
 
 def preset_table(rods: pd.DataFrame, trial: pd.DataFrame) -> pd.DataFrame:

@@ -29,6 +29,7 @@ from entangle_bench.metrics.local_fields import local_fields
 from entangle_bench.presets import Numerics
 from entangle_bench.scene import ContactParams, Scene, SceneConfig
 from entangle_bench.suite.base import BenchTask, Snapshot
+from entangle_bench.viz import object_geometry, pack
 
 MAX_HUB_SPEED_M_S = 2.0
 
@@ -187,7 +188,7 @@ class GripperTask(BenchTask[G]):
         """ACN, local fields (spheres of LOCAL_ACN_DIAMETER_M) and active contacts by kind; curves and contacts.
 
         Arrays: `curves` (F, n + 1, 3) m, `contact_points` (c, 3) m, `contact_kinds` (c,), `contact_forces_n`
-        (c,) N: the input of scripts/plot_entanglement.py.
+        (c,) N, and the object's parts (`viz.pack`): the input of scripts/plot_entanglement.py.
         """
         curves = physics.centerlines()
         fields = local_fields(curves, LOCAL_ACN_DIAMETER_M)
@@ -204,5 +205,6 @@ class GripperTask(BenchTask[G]):
             "contact_points": contacts.points,
             "contact_kinds": contacts.kinds,
             "contact_forces_n": contacts.normal_forces_n,
+            **pack(object_geometry(physics.model.ptr, physics.data.ptr, physics.scene.geoms.is_object)),
         }
         return Snapshot(metrics, arrays)

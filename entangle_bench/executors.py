@@ -1,0 +1,197 @@
+"""Executors: where trials run. This process or local worker processes.
+
+An executor maps a picklable function over items and yields `(item, result)` pairs as they finish, in any
+order. If the process running an item dies (killed, out of memory, a crash in native code, a lost node), the
+item is run again on a fresh worker; after `attempts` deaths it is yielded with a `WorkerLost` instead of a
+result, which the runner logs as a `failed` trial. An exception raised by the function itself is not a
+death: it is raised in the driver (the runner's `TrialWorker` turns its own exceptions into failed rows).
+
+Stopping: when the consumer stops (an exception, KeyboardInterrupt, SIGTERM turned into an exception by the
+CLI, or closing the generator), the executor stops its workers before the exception leaves it: local worker
+processes are terminated and joined. Local workers ignore SIGINT (a Ctrl-C reaches the whole process group;
+the driver alone decides) and die with the driver even if it is killed outright (Linux parent-death signal).
+
+- `SerialExecutor`: this process; no isolation, so a death is the driver's death.
+- `ProcessExecutor(workers)`: local spawned processes, one item at a time each, so a death is attributed to
+  exactly the item its worker was running.
+"""
+
+from __future__ import annotations
+
+import collections
+import ctypes
+import multiprocessing
+import multiprocessing.connection
+import os
+import signal
+import sys
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol, TypeVar
+
+from entangle_bench.errors import ParameterError
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: Attempts per item: the first run and one retry after a worker death.
+ATTEMPTS = 2
+EXECUTORS = ("local",)
+
+
+@dataclass(frozen=True)
+class WorkerLost:
+    """An item whose worker died on every attempt: why, in words."""
+
+    reason: str
+
+
+class Executor(Protocol):
+    """Runs a function over items, yielding (item, result or WorkerLost) as they finish (any order)."""
+
+    def map_unordered(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[T, R | WorkerLost]]:
+        """Yield (item, fn(item)) for every item; (item, WorkerLost) if its worker died on every attempt."""
+        ...
+
+
+class SerialExecutor:
+    """Runs everything in this process, in order (debugging, tests, one worker)."""
+
+    def map_unordered(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[T, R | WorkerLost]]:
+        """Yield (item, fn(item)) in order."""
+        for item in items:
+            yield item, fn(item)
+
+
+class WorkerError(RuntimeError):
+    """The function raised in a worker process; the message holds the worker's traceback."""
+
+
+def _die_with_parent(parent: int) -> None:
+    """Ask Linux to SIGKILL this process when its parent exits; exit now if the parent is already gone."""
+    if sys.platform.startswith("linux"):
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _worker_main(conn: multiprocessing.connection.Connection, fn: Callable[[Any], Any], parent: int) -> None:
+    """A worker process: run fn on each (index, item) received, send (index, ok, result) back; None stops."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
+    while True:
+        try:
+            message = conn.recv()
+        except EOFError:  # the driver is gone
+            return
+        if message is None:
+            return
+        index, item = message
+        try:
+            reply = (index, True, fn(item))
+        except Exception:
+            reply = (index, False, traceback.format_exc())
+        conn.send(reply)
+
+
+def _death_reason(exitcode: int | None) -> str:
+    """Words for a worker process's exit code."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exited with code {exitcode}"
+
+
+class _Worker:
+    """One local worker process and its end of the pipe; `job` is the (index, item) it is running."""
+
+    def __init__(self, context: Any, fn: Callable[[Any], Any]):
+        self.conn, child = context.Pipe()
+        self.process = context.Process(target=_worker_main, args=(child, fn, os.getpid()), daemon=True)
+        self.process.start()
+        child.close()
+        self.job: tuple[int, Any] | None = None
+
+    def stop(self) -> None:
+        """Terminate the process (SIGTERM, then SIGKILL) and reap it."""
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join(5.0)
+            if self.process.is_alive():
+                self.process.kill()
+        self.process.join()
+        self.conn.close()
+
+
+class ProcessExecutor:
+    """Local worker processes (spawned; one MuJoCo simulation per core), each running one item at a time."""
+
+    def __init__(self, workers: int, attempts: int = ATTEMPTS):
+        if workers < 1:
+            raise ParameterError(f"workers = {workers} must be at least 1")
+        self.workers, self.attempts = workers, attempts
+
+    def map_unordered(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[T, R | WorkerLost]]:
+        """Yield (item, result) as workers finish; a worker that dies is replaced and its item retried."""
+        context = multiprocessing.get_context("spawn")
+        items = list(items)
+        pending = collections.deque(range(len(items)))
+        deaths: collections.Counter[int] = collections.Counter()
+        pool: list[_Worker] = []
+        try:
+            while pending or any(w.job is not None for w in pool):
+                while pending and len(pool) < self.workers:
+                    pool.append(_Worker(context, fn))
+                for worker in pool:
+                    if worker.job is None and pending:
+                        index = pending.popleft()
+                        worker.job = (index, items[index])
+                        worker.conn.send(worker.job)
+                busy = [w for w in pool if w.job is not None]
+                waitables = [w.conn for w in busy] + [w.process.sentinel for w in busy]
+                ready = set(multiprocessing.connection.wait(waitables))
+                for worker in busy:
+                    index = worker.job[0]
+                    reply = None
+                    if worker.conn in ready:
+                        try:
+                            reply = worker.conn.recv()
+                        except (EOFError, OSError):
+                            reply = None
+                    elif worker.process.sentinel not in ready:
+                        continue
+                    if reply is None:  # the process died while running the item
+                        worker.process.join()
+                        reason = _death_reason(worker.process.exitcode)
+                        worker.stop()
+                        pool.remove(worker)
+                        deaths[index] += 1
+                        if deaths[index] < self.attempts:
+                            pending.appendleft(index)
+                        else:
+                            yield items[index], WorkerLost(f"worker process {reason} on each of "
+                                                           f"{self.attempts} attempts")
+                        continue
+                    worker.job = None
+                    _, ok, result = reply
+                    if not ok:
+                        raise WorkerError(f"item {index} raised in a worker process:\n{result}")
+                    yield items[index], result
+        finally:
+            for worker in pool:
+                worker.stop()
+
+
+def make_executor(workers: int, kind: str = "local") -> Executor:
+    """The executor for `kind` (EXECUTORS): local runs serially for one worker, in processes otherwise."""
+    if kind not in EXECUTORS:
+        raise ParameterError(f"executor {kind!r} is not one of {list(EXECUTORS)}")
+    if workers < 1:
+        raise ParameterError(f"workers = {workers} must be at least 1")
+    return SerialExecutor() if workers == 1 else ProcessExecutor(workers)
