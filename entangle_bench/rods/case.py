@@ -42,9 +42,11 @@ from typing import Any, Literal
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from entangle_bench import resources
 from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.config import check_range
 from entangle_bench.errors import FileFormatError, ParameterError
+from entangle_bench.registry import Registry
 
 _REQUIRED = (
     "name",
@@ -285,6 +287,27 @@ class RodCase:
     def darboux(self) -> np.ndarray:
         """Rest Darboux vector (tau, k1, k2) in the material frame (t, d1, d2), 1/m."""
         return np.array([self.intrinsic_twist, *self.intrinsic_curvature], dtype=float)
+
+
+#: The packaged rod cases (`tasks/rod_cases/*.json`) by name, the file stem: `entangle-bench rod soft_cantilever`.
+ROD_CASES: Registry[Path] = Registry("rod case")
+for _path in sorted(resources.rod_cases_dir().glob("*.json")):
+    ROD_CASES.add(_path.stem, _path, description="")
+
+
+def case_path(name_or_path: str | os.PathLike[str]) -> Path:
+    """The rod-case file meant: an existing file (relative to the current folder), else a packaged case by name.
+
+    A missing file given as a path (a folder part or a .json suffix) raises FileFormatError; an unknown bare
+    name raises UnknownNameError; both list the packaged cases.
+    """
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    if path.suffix == ".json" or len(path.parts) > 1:
+        raise FileFormatError(f"{path}: no such rod-case file; packaged rod cases, by name: "
+                              f"{', '.join(ROD_CASES.names())}")
+    return ROD_CASES.get(str(name_or_path))
 
 
 def load_case(path: str | os.PathLike[str]) -> RodCase:

@@ -51,6 +51,7 @@ import pandas as pd  # noqa: E402
 from dm_control.rl import control  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from entangle_bench import resources  # noqa: E402
 from entangle_bench.atomic import atomic_savefig, atomic_write_text  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.filament import rest_quaternions  # noqa: E402
@@ -62,8 +63,7 @@ from entangle_bench.rods.representations import build_representation, solve_repr
 from entangle_bench.runner import simulate  # noqa: E402
 from entangle_bench.suite import resolve_config  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
-CASES = ROOT / "tasks" / "rod_cases"
+CASES = resources.rod_cases_dir()
 TASK = "top_drape/eight_branch_tree"
 SWING_DAMPING_TIME_S = 0.02  # the harness filament's default Kelvin-Voigt time (FilamentParams)
 TRIAL_OVERRIDES = ("phases.hold_time_s=0.5", "phases.release_time_s=0.1")
