@@ -1,4 +1,4 @@
-"""Executors: where trials run. This process or local worker processes.
+"""Executors: where trials run. This process, local worker processes, or a Ray cluster.
 
 An executor maps a picklable function over items and yields `(item, result)` pairs as they finish, in any
 order. If the process running an item dies (killed, out of memory, a crash in native code, a lost node), the
@@ -8,18 +8,24 @@ death: it is raised in the driver (the runner's `TrialWorker` turns its own exce
 
 Stopping: when the consumer stops (an exception, KeyboardInterrupt, SIGTERM turned into an exception by the
 CLI, or closing the generator), the executor stops its workers before the exception leaves it: local worker
-processes are terminated and joined. Local workers ignore SIGINT (a Ctrl-C reaches the whole process group;
-the driver alone decides) and die with the driver even if it is killed outright (Linux parent-death signal).
+processes are terminated and joined; Ray tasks are cancelled (their worker processes killed) and the executor
+disconnects from Ray, which stops a local Ray instance it started. Local workers ignore SIGINT (a Ctrl-C
+reaches the whole process group; the driver alone decides) and die with the driver even if it is killed
+outright (Linux parent-death signal).
 
 - `SerialExecutor`: this process; no isolation, so a death is the driver's death.
 - `ProcessExecutor(workers)`: local spawned processes, one item at a time each, so a death is attributed to
   exactly the item its worker was running.
+- `RayExecutor(address=None)`: Ray tasks (local Ray by default, an existing cluster with an address); Ray
+  reruns a task whose worker died (`max_retries`); results return through Ray's object store to the driver.
+  Ray is an optional dependency (`pip install 'entangle-bench[cluster]'`).
 """
 
 from __future__ import annotations
 
 import collections
 import ctypes
+import importlib.util
 import multiprocessing
 import multiprocessing.connection
 import os
@@ -37,7 +43,7 @@ R = TypeVar("R")
 
 #: Attempts per item: the first run and one retry after a worker death.
 ATTEMPTS = 2
-EXECUTORS = ("local",)
+EXECUTORS = ("local", "ray")
 
 
 @dataclass(frozen=True)
@@ -175,7 +181,7 @@ class ProcessExecutor:
                         if deaths[index] < self.attempts:
                             pending.appendleft(index)
                         else:
-                            yield items[index], WorkerLost(f"worker process {reason} on each of "
+                            yield items[index], WorkerLost(f"worker process died ({reason}) on each of "
                                                            f"{self.attempts} attempts")
                         continue
                     worker.job = None
@@ -188,10 +194,97 @@ class ProcessExecutor:
                 worker.stop()
 
 
-def make_executor(workers: int, kind: str = "local") -> Executor:
-    """The executor for `kind` (EXECUTORS): local runs serially for one worker, in processes otherwise."""
+class RayExecutor:
+    """Ray tasks: a local Ray instance by default, an existing cluster with `address` ('auto', 'ray://...').
+
+    At most `window` tasks are in flight at once (default: twice the cluster's CPUs), so a sweep of 10^5 trials
+    neither floods the scheduler nor holds all results. Each task needs one CPU. Results travel back through
+    Ray's object store; workers write nothing into the output folder. If Ray was not initialized, the executor
+    starts it (`ray.init(address)`) and shuts it down when done or interrupted.
+    """
+
+    def __init__(self, address: str | None = None, attempts: int = ATTEMPTS, window: int | None = None,
+                 num_cpus: int | None = None):
+        self.address, self.attempts, self.window, self.num_cpus = address, attempts, window, num_cpus
+
+    def _init(self) -> bool:
+        """Connect to (or start) Ray unless it is up; return whether this call started it."""
+        import ray
+
+        if ray.is_initialized():
+            return False
+        handler = signal.getsignal(signal.SIGTERM)
+        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": True}
+        if self.address is None:
+            kwargs["num_cpus"] = self.num_cpus
+        try:
+            ray.init(address=self.address, **kwargs)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            where = f"the Ray cluster at {self.address}" if self.address else "a new local Ray instance"
+            raise ParameterError(f"cannot start or reach {where}: {exc}") from None
+        finally:
+            if handler is not None:  # ray.init replaces the driver's SIGTERM handler with sys.exit
+                signal.signal(signal.SIGTERM, handler)
+        return True
+
+    def map_unordered(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[T, R | WorkerLost]]:
+        """Yield (item, result) as Ray tasks finish; Ray reruns a task whose worker died (attempts - 1 times)."""
+        import ray
+        from ray import exceptions as rex
+
+        items = list(items)
+        if not items:
+            return
+        started = self._init()
+        refs: dict[Any, int] = {}
+        try:
+            remote = ray.remote(num_cpus=1, max_retries=self.attempts - 1, retry_exceptions=False)(_call)
+            fn_ref = ray.put(fn)
+            window = self.window or max(2, 2 * int(ray.cluster_resources().get("CPU", 1)))
+            queue = collections.deque(range(len(items)))
+            while queue or refs:
+                while queue and len(refs) < window:
+                    index = queue.popleft()
+                    refs[remote.remote(fn_ref, items[index])] = index
+                (ref,), _ = ray.wait(list(refs), num_returns=1)
+                index = refs.pop(ref)
+                try:
+                    result = ray.get(ref)
+                except rex.RayTaskError as exc:  # the function raised: not a death
+                    raise WorkerError(f"item {index} raised in a Ray task:\n{exc}") from None
+                except rex.RayError as exc:  # the worker or its node died on every attempt
+                    first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+                    yield items[index], WorkerLost(f"Ray worker died on each of {self.attempts} attempts "
+                                                   f"({type(exc).__name__}: {first})")
+                    continue
+                yield items[index], result
+        finally:
+            for ref in refs:
+                ray.cancel(ref, force=True)
+            if started:
+                ray.shutdown()
+
+
+def _call(fn: Callable[[T], R], item: T) -> R:
+    """Run fn(item) in a Ray worker."""
+    return fn(item)
+
+
+def make_executor(workers: int, kind: str = "local", address: str | None = None) -> Executor:
+    """The executor for `kind` (EXECUTORS).
+
+    local: this process for one worker, else `workers` processes. ray: the cluster at `address`, or a new local
+    Ray instance with `workers` CPUs.
+    """
     if kind not in EXECUTORS:
         raise ParameterError(f"executor {kind!r} is not one of {list(EXECUTORS)}")
     if workers < 1:
         raise ParameterError(f"workers = {workers} must be at least 1")
+    if kind == "ray":
+        if importlib.util.find_spec("ray") is None:
+            raise ParameterError("--executor ray needs Ray, an optional dependency: "
+                                 "pip install 'entangle-bench[cluster]'")
+        return RayExecutor(address, num_cpus=None if address else workers)
+    if address is not None:
+        raise ParameterError("--address is for --executor ray")
     return SerialExecutor() if workers == 1 else ProcessExecutor(workers)

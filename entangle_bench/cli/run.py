@@ -17,7 +17,7 @@ from entangle_bench import suites
 from entangle_bench.atomic import AtomicFile
 from entangle_bench.cli.interrupt import Interrupted
 from entangle_bench.errors import ParameterError, UnknownNameError
-from entangle_bench.executors import make_executor
+from entangle_bench.executors import EXECUTORS, make_executor
 from entangle_bench.metrics.stats import success_table
 from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import PRESETS
@@ -33,7 +33,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("target", help="suite name (see `entangle-bench tasks`), suite file (.toml) or task name")
     p.add_argument("--trials", default=None, metavar="N",
                    help="seeded trials per condition (default: the suite's, 1 for a task)")
-    p.add_argument("--workers", default="2", metavar="N", help="local worker processes (default 2)")
+    p.add_argument("--workers", default="2", metavar="N",
+                   help="local worker processes, or the CPUs of a new local Ray instance (default 2)")
+    p.add_argument("--executor", default="local", metavar="KIND",
+                   help=f"where trials run: {' or '.join(EXECUTORS)} (default local)")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="with --executor ray: an existing Ray cluster ('auto', HOST:PORT or ray://HOST:PORT); "
+                        "default: start a local Ray instance")
     p.add_argument("--out", type=Path, default=None, help="output folder (default results/TARGET)")
     p.add_argument("--preset", default=None, metavar="NAME",
                    help=f"numerical preset: {', '.join(sorted(PRESETS))} (on a suite: replaces the file's)")
@@ -122,7 +128,7 @@ def _suite(args: argparse.Namespace) -> suites.Suite:
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, run the missing trials, append rows, print and save the summary."""
     workers = _integer("--workers", args.workers, 1)
-    executor = make_executor(workers)
+    executor = make_executor(workers, args.executor, args.address)
     suite = _suite(args)
     specs = list(suite.specs)
     out = args.out or Path("results") / suite.name

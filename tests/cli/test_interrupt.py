@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import signal
@@ -28,6 +29,16 @@ def _children(pid: int) -> set[int]:
     return out
 
 
+def _descendants(pid: int) -> set[int]:
+    """Ids of every process below `pid`."""
+    out, todo = set(), [pid]
+    while todo:
+        new = _children(todo.pop()) - out
+        out |= new
+        todo += new
+    return out
+
+
 def _rows(log: Path) -> list[dict]:
     if not log.exists():
         return []
@@ -43,17 +54,25 @@ def _wait(condition, timeout_s: float, what: str) -> None:
 
 
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="reads child processes from Linux /proc")
-@pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
-def test_a_signal_stops_the_workers_and_keeps_the_log_whole(tmp_path, signum, code):
+@pytest.mark.parametrize(("signum", "code", "executor"), [
+    (signal.SIGINT, 130, "local"),
+    (signal.SIGTERM, 143, "local"),
+    pytest.param(signal.SIGINT, 130, "ray", marks=pytest.mark.skipif(importlib.util.find_spec("ray") is None,
+                                                                      reason="needs ray")),
+])
+def test_a_signal_stops_the_workers_and_keeps_the_log_whole(tmp_path, signum, code, executor):
+    """Local: the two worker processes end. Ray: the local Ray instance the run started (its daemons and workers)
+    is shut down."""
     out = tmp_path / "out"
     argv = [sys.executable, "-m", "entangle_bench.cli", "run", "sphere", "--trials", str(TRIALS), "--workers", "2",
-            "--preset", "fast", "--out", str(out), "--no-progress"] + [a for s in SHORT_SEQUENCE for a in ("--set", s)]
+            "--preset", "fast", "--out", str(out), "--no-progress", "--executor", executor]
+    argv += [a for s in SHORT_SEQUENCE for a in ("--set", s)]
     driver = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         log = out / "trials.jsonl"
         # two workers (and multiprocessing's resource tracker), and one trial done, so both workers are busy
         _wait(lambda: len(_rows(log)) >= 1 and len(_children(driver.pid)) >= 2, 240, "two workers and a row")
-        workers = _children(driver.pid)
+        workers = _descendants(driver.pid)
         driver.send_signal(signum)
         stdout, stderr = driver.communicate(timeout=60)
     finally:
