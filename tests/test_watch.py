@@ -200,3 +200,21 @@ def test_video_uses_mujoco_rendering_when_a_gl_context_can_be_made(tmp_path):
     backend, frames, *_ = done.stdout.split()
     assert backend == "mujoco" or "MuJoCo renderer unavailable" in done.stdout
     assert len(list(imageio_ffmpeg.read_frames(str(path)))) - 1 == int(frames) >= 2
+
+
+def test_run_record_and_video_write_the_files_of_each_trial_under_the_output_folder(tmp_path, capsys):
+    from entangle_bench.cli import main
+    from entangle_bench.results import TrialLog
+
+    argv = ["run", "sphere", "--trials", "1", "--workers", "1", "--preset", "fast", "--out", str(tmp_path),
+            "--no-progress", "--record", "--video", *[a for s in SHORT_SEQUENCE for a in ("--set", s)]]
+    assert main(argv) == 0
+    ids = {row["trial_id"] for row in TrialLog(tmp_path / "trials.jsonl").rows()}
+    assert len(ids) == 1
+    assert {p.stem for p in (tmp_path / "recordings").glob("*.mcap")} == ids
+    assert {p.stem for p in (tmp_path / "videos").glob("*.mp4")} == ids
+    for trial_id in ids:
+        assert len(list(read_recording(tmp_path / "recordings" / f"{trial_id}.mcap"))) > 10
+        assert len(list(imageio_ffmpeg.read_frames(str(tmp_path / "videos" / f"{trial_id}.mp4")))) > 10
+    leftovers = [p for p in tmp_path.rglob("*") if ".tmp" in p.name]
+    assert leftovers == []
