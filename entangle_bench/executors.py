@@ -221,7 +221,12 @@ class RayExecutor:
             ray.init(address=self.address, **kwargs)
         except (ConnectionError, RuntimeError, ValueError) as exc:
             where = f"the Ray cluster at {self.address}" if self.address else "a new local Ray instance"
-            raise ParameterError(f"cannot start or reach {where}: {exc}") from None
+            hint = ""
+            if self.address not in (None, "auto") and "RAY_AUTH_MODE" not in os.environ:
+                hint = ("; clusters started with `ray start` use token authentication, which Ray enables for "
+                        "an explicit address only with RAY_AUTH_MODE=token and the cluster's token (RAY_AUTH_TOKEN "
+                        "or ~/.ray/auth_token); on a node of the cluster, --address auto finds both")
+            raise ParameterError(f"cannot start or reach {where}: {exc}{hint}") from None
         finally:
             if handler is not None:  # ray.init replaces the driver's SIGTERM handler with sys.exit
                 signal.signal(signal.SIGTERM, handler)
