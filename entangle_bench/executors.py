@@ -195,7 +195,8 @@ class ProcessExecutor:
 
 
 class RayExecutor:
-    """Ray tasks: a local Ray instance by default, an existing cluster with `address` ('auto', 'ray://...').
+    """Ray tasks: an existing cluster at `address` ('auto', 'HOST:PORT', 'ray://...'), else at RAY_ADDRESS, else
+    a new local Ray instance with `num_cpus` CPUs.
 
     At most `window` tasks are in flight at once (default: twice the cluster's CPUs), so a sweep of 10^5 trials
     neither floods the scheduler nor holds all results. Each task needs one CPU. Results travel back through
@@ -214,15 +215,18 @@ class RayExecutor:
         if ray.is_initialized():
             return False
         handler = signal.getsignal(signal.SIGTERM)
+        # No address: RAY_ADDRESS if set, else a new local instance ("local"; plain ray.init() would join any
+        # Ray it finds on this machine, even a stale one).
+        address = self.address or os.environ.get("RAY_ADDRESS") or "local"
         kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": True}
-        if self.address is None:
+        if address == "local":
             kwargs["num_cpus"] = self.num_cpus
         try:
-            ray.init(address=self.address, **kwargs)
+            ray.init(address=address, **kwargs)
         except (ConnectionError, RuntimeError, ValueError) as exc:
-            where = f"the Ray cluster at {self.address}" if self.address else "a new local Ray instance"
+            where = "a new local Ray instance" if address == "local" else f"the Ray cluster at {address}"
             hint = ""
-            if self.address not in (None, "auto") and "RAY_AUTH_MODE" not in os.environ:
+            if address not in ("local", "auto") and "RAY_AUTH_MODE" not in os.environ:
                 hint = ("; clusters started with `ray start` use token authentication, which Ray enables for "
                         "an explicit address only with RAY_AUTH_MODE=token and the cluster's token (RAY_AUTH_TOKEN "
                         "or ~/.ray/auth_token); on a node of the cluster, --address auto finds both")

@@ -179,7 +179,7 @@ def trials_table(args: argparse.Namespace) -> None:
         import ray
 
         start = time.perf_counter()
-        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+        ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False)
         startup = time.perf_counter() - start
         results.append((f"Ray, local, 2 CPUs (start-up {startup:.1f} s, not included)",
                         *_timed(RayExecutor(), specs)))
@@ -236,7 +236,7 @@ def overhead_table(args: argparse.Namespace) -> None:
         import ray
 
         start = time.perf_counter()
-        ray.init(num_cpus=1, include_dashboard=False, log_to_driver=False)
+        ray.init(address="local", num_cpus=1, include_dashboard=False, log_to_driver=False)
         _timed(RayExecutor(), specs[:1])  # the first task starts Ray's worker process
         startup = time.perf_counter() - start
         results.append(("Ray, local, 1 CPU", startup, _timed(RayExecutor(), specs)[0]))

@@ -26,14 +26,25 @@ SAME = ("trial_id", "task", "condition", "seed", "preset", "outcome", "failure_m
 
 @pytest.fixture(scope="module")
 def ray_cluster():
-    """One local Ray instance with 2 CPUs for the whole module; this module's observers travel by value."""
+    """One local Ray instance with 2 CPUs for the whole module; this module's observers travel by value.
+
+    Token authentication is off for this short-lived local instance, so Ray writes no ~/.ray/auth_token.
+    """
     ray = pytest.importorskip("ray")  # imported here, not by the worker processes that import this module
     handler = signal.getsignal(signal.SIGTERM)  # ray.init replaces it: restore it afterwards
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
-    yield
-    ray.shutdown()
-    signal.signal(signal.SIGTERM, handler)
+    mode = os.environ.get("RAY_AUTH_MODE")
+    os.environ["RAY_AUTH_MODE"] = "disabled"
+    try:
+        ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False)
+        ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+        yield
+    finally:
+        ray.shutdown()
+        signal.signal(signal.SIGTERM, handler)
+        if mode is None:
+            os.environ.pop("RAY_AUTH_MODE", None)
+        else:
+            os.environ["RAY_AUTH_MODE"] = mode
 
 
 @pytest.fixture

@@ -67,7 +67,9 @@ def test_a_signal_stops_the_workers_and_keeps_the_log_whole(tmp_path, signum, co
     argv = [sys.executable, "-m", "entangle_bench.cli", "run", "sphere", "--trials", str(TRIALS), "--workers", "2",
             "--preset", "fast", "--out", str(out), "--no-progress", "--executor", executor]
     argv += [a for s in SHORT_SEQUENCE for a in ("--set", s)]
-    driver = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    env = dict(os.environ, RAY_AUTH_MODE="disabled")  # a local Ray instance for seconds: no token file in ~/.ray
+    driver = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                              env=env)
     try:
         log = out / "trials.jsonl"
         # two workers (and multiprocessing's resource tracker), and one trial done, so both workers are busy
