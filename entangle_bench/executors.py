@@ -24,6 +24,7 @@ outright (Linux parent-death signal).
 from __future__ import annotations
 
 import collections
+import contextlib
 import ctypes
 import importlib.util
 import multiprocessing
@@ -104,6 +105,20 @@ def _worker_main(conn: multiprocessing.connection.Connection, fn: Callable[[Any]
         conn.send(reply)
 
 
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """Ignore SIGINT in this process while the block runs (main thread only; elsewhere a no-op)."""
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _death_reason(exitcode: int | None) -> str:
     """Words for a worker process's exit code."""
     if exitcode is not None and exitcode < 0:
@@ -120,9 +135,18 @@ class _Worker:
     def __init__(self, context: Any, fn: Callable[[Any], Any]):
         self.conn, child = context.Pipe()
         self.process = context.Process(target=_worker_main, args=(child, fn, os.getpid()), daemon=True)
-        self.process.start()
+        with _sigint_ignored():  # inherited through exec: a Ctrl-C while the worker starts up is the driver's
+            self.process.start()
         child.close()
         self.job: tuple[int, Any] | None = None
+
+    def send(self, job: tuple[int, Any]) -> None:
+        """Give the worker a job; a worker that has died is noticed by the executor's wait."""
+        self.job = job
+        try:
+            self.conn.send(job)
+        except OSError:  # BrokenPipeError: the process is gone; its sentinel says so
+            pass
 
     def stop(self) -> None:
         """Terminate the process (SIGTERM, then SIGKILL) and reap it."""
@@ -157,8 +181,7 @@ class ProcessExecutor:
                 for worker in pool:
                     if worker.job is None and pending:
                         index = pending.popleft()
-                        worker.job = (index, items[index])
-                        worker.conn.send(worker.job)
+                        worker.send((index, items[index]))
                 busy = [w for w in pool if w.job is not None]
                 waitables = [w.conn for w in busy] + [w.process.sentinel for w in busy]
                 ready = set(multiprocessing.connection.wait(waitables))

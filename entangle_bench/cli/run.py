@@ -39,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help=f"where trials run: {' or '.join(EXECUTORS)} (default local)")
     p.add_argument("--address", default=None, metavar="ADDR",
                    help="with --executor ray: an existing Ray cluster ('auto', HOST:PORT or ray://HOST:PORT); "
-                        "default: start a local Ray instance")
+                        "default: RAY_ADDRESS if set, else a new local Ray instance")
     p.add_argument("--out", type=Path, default=None, help="output folder (default results/TARGET)")
     p.add_argument("--preset", default=None, metavar="NAME",
                    help=f"numerical preset: {', '.join(sorted(PRESETS))} (on a suite: replaces the file's)")
