@@ -22,13 +22,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import mujoco
 import numpy as np
+from scipy.optimize import least_squares
 
-from entangle_bench.config import check_range
+from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
+
+JointModel = Literal["hinges", "ball"]
+
+#: Hinge order of the "hinges" joint model: twist (mid-tangent), out-of-plane bend, in-plane bend. The large
+#: rest rotation (in-plane) comes last, so no two hinge axes can line up within 90 deg of the rest shape.
+HINGE_KINDS = ("twist", "side", "bend")
 
 #: Default operating pressure of the reference gripper (Becker et al. 2022), Pa.
 REFERENCE_PRESSURE_PA = 172e3
@@ -63,9 +71,10 @@ class FilamentParams:
     """Kelvin-Voigt relaxation time: each joint's damping is its stiffness times this, N m s/rad."""
     curvature_calibration: float = float("nan")
     """Dimensionless c of the actuation law; NaN means the calibrated default (see `default_calibration`)."""
-    twist_hinge: bool = False
-    """Give each segment a twist hinge in series with its ball joint so that the twist stiffness is G J, not
-    the ball spring's isotropic E I (see `add_filament`); False is the plain ball chain."""
+    joints: JointModel = "ball"
+    """How each segment joins its parent: "hinges" (twist, out-of-plane and in-plane bending hinges with
+    stiffness GJ, E I_side and E I_bend per segment length: right in 3D) or "ball" (one ball joint with an
+    isotropic spring E I, so twist is 1.5x too stiff; see `add_filament`)."""
 
     def __post_init__(self) -> None:
         check_range("filament.length_m", self.length_m, 0.0, None, low_open=True)
@@ -87,11 +96,7 @@ class FilamentParams:
         check_range("filament.damping_time_s", self.damping_time_s, 0.0, 10.0)
         if not math.isnan(self.curvature_calibration):
             check_range("filament.curvature_calibration", self.curvature_calibration, 0.0, None)
-        if self.twist_hinge and self.torsional_stiffness_nm2 > self.bending_stiffness_nm2 * (1 + 1e-9):
-            raise ParameterError(
-                f"filament.twist_hinge needs G J <= E I (poisson_ratio >= 0 for a round tube); got "
-                f"G J = {self.torsional_stiffness_nm2:.3g} N m^2, E I = {self.bending_stiffness_nm2:.3g} N m^2"
-            )
+        check_choice("filament.joints", self.joints, ("hinges", "ball"))
 
     @property
     def segment_length_m(self) -> float:
@@ -144,6 +149,11 @@ class FilamentParams:
         return self.youngs_modulus_pa * self.second_moments_m4[0]
 
     @property
+    def side_bending_stiffness_nm2(self) -> float:
+        """EI across the curling plane, N m^2 (out-of-plane bending of the hinge joints)."""
+        return self.youngs_modulus_pa * self.second_moments_m4[1]
+
+    @property
     def shear_modulus_pa(self) -> float:
         """G = E / (2 (1 + nu)), Pa."""
         return self.youngs_modulus_pa / (2.0 * (1.0 + self.poisson_ratio))
@@ -152,18 +162,6 @@ class FilamentParams:
     def torsional_stiffness_nm2(self) -> float:
         """GJ with J = I_bend + I_side (polar moment), N m^2."""
         return self.shear_modulus_pa * sum(self.second_moments_m4)
-
-    @property
-    def twist_hinge_stiffness_nm(self) -> float:
-        """Stiffness of an interior segment's series twist hinge, N m/rad: 1 / (ds (1/GJ - 1/EI)).
-
-        In series with the ball spring's twist stiffness EI/ds it gives the rod's GJ/ds; infinite (no hinge
-        needed) when GJ >= EI, e.g. a solid round rod at poisson_ratio 0.
-        """
-        gj, ei = self.torsional_stiffness_nm2, self.bending_stiffness_nm2
-        if gj >= ei * (1 - 1e-9):
-            return math.inf
-        return 1.0 / (self.segment_length_m * (1.0 / gj - 1.0 / ei))
 
     @property
     def gravity_length_m(self) -> float:
@@ -222,21 +220,20 @@ class FilamentHandle:
     """Names and compiled indices of one filament in a model."""
 
     index: int
+    joints: JointModel
     body_names: tuple[str, ...]
     geom_names: tuple[str, ...]
-    joint_names: tuple[str, ...]
-    """Ball joints, root to tip (their qpos_spring holds the rest shape)."""
-    twist_names: tuple[str, ...] = ()
-    """Series twist hinges, root to tip (empty for a plain ball chain)."""
+    joint_names: tuple[tuple[str, ...], ...]
+    """Per segment, root to tip: its ball joint, or its hinges in HINGE_KINDS order."""
+
+    def joint_ids(self, model: mujoco.MjModel) -> np.ndarray:
+        """(n, k) joint ids, root to tip (k = 1 for a ball chain, 3 for hinges)."""
+        return np.array([[model.joint(name).id for name in names] for names in self.joint_names], dtype=int)
 
     def qpos_addresses(self, model: mujoco.MjModel) -> np.ndarray:
-        """(n, 4) indices into qpos / qpos_spring of each ball joint's quaternion."""
-        adr = [model.joint(name).qposadr[0] for name in self.joint_names]
-        return np.asarray(adr)[:, None] + np.arange(4)[None, :]
-
-    def twist_ids(self, model: mujoco.MjModel) -> np.ndarray:
-        """Joint ids of the series twist hinges, root to tip (empty without hinges)."""
-        return np.array([model.joint(name).id for name in self.twist_names], dtype=int)
+        """(n, 4) quaternion indices into qpos / qpos_spring (ball), or (n, 3) hinge-angle indices (hinges)."""
+        adr = model.jnt_qposadr[self.joint_ids(model)]
+        return adr[:, 0, None] + np.arange(4)[None, :] if self.joints == "ball" else adr
 
     def body_ids(self, model: mujoco.MjModel) -> np.ndarray:
         """Body ids from root to tip."""
@@ -258,9 +255,9 @@ def joint_name(index: int, segment: int) -> str:
     return f"f{index:02d}_j{segment:03d}"
 
 
-def twist_name(index: int, segment: int) -> str:
-    """Name of the twist hinge at the root of segment `segment` of filament `index`."""
-    return f"f{index:02d}_t{segment:03d}"
+def hinge_name(index: int, segment: int, kind: str) -> str:
+    """Name of the `kind` hinge (one of HINGE_KINDS) at the root of segment `segment` of filament `index`."""
+    return f"f{index:02d}_j{segment:03d}_{kind}"
 
 
 def add_filament(
@@ -274,17 +271,19 @@ def add_filament(
 ) -> FilamentHandle:
     """Add one clamped filament as a child chain of `parent`; `pos`/`quat` place the clamp frame (x = tangent).
 
-    `twist_armature_scale` adds joint armature equal to (scale - 1) times the segment's own spin inertia. It
-    targets torsional waves (the fastest mode of a thin rod) and so allows a larger timestep without changing
-    any static equilibrium; note that MuJoCo applies a ball joint's armature to all three of its rotational
-    DOFs, so bending rotations get the same (small) added inertia, which slows the fastest bending dynamics
-    too (measured in the accuracy-time study: swing error 0.30 L at x1 vs 0.43 L at x1000).
+    `twist_armature_scale` adds joint armature equal to (scale - 1) times the segment's own spin inertia to
+    every rotational DOF. It targets torsional waves (the fastest mode of a thin rod) and so allows a larger
+    timestep without changing any static equilibrium; it slows the fastest bending dynamics too (measured in
+    the accuracy-time study: swing error 0.30 L at x1 vs 0.43 L at x1000).
 
-    With `params.twist_hinge`, each body gets a hinge before its ball joint whose axis is the rest
-    mid-tangent between the two segments (x while straight; `rest_twist_axes` gives it for a curved rest
-    shape, and actuation rewrites `model.jnt_axis`). The hinge spring is in series with the ball spring's
-    twist: together they give twist stiffness GJ/ds while bending keeps EI/ds, second-order accurate like
-    the rest of the chain. The hinge gets the ball joint's armature, at least the segment's spin inertia.
+    Joints ("ball"): one ball joint per segment, isotropic spring E I / ds (twist too stiff by 1 + nu).
+    Joints ("hinges"): three hinges per segment whose axes, at the rest shape, are the material triad at the
+    joint's mid-point: the rest mid-tangent (twist, G J / ds), the out-of-plane normal (E I_side / ds) and
+    the curl axis (E I_bend / ds); `rest_hinges` sets axes and rest angles, and actuation rewrites them.
+    Linearized at the rest shape this is exactly the anisotropic rod stiffness; it converges at first order
+    in 3D (measured on curl_sideways_gravity: 6.9e-3 L at 16 segments, 2.8e-3 L at 40) against the
+    isotropic ball chain's 6.0e-2 L at any resolution. The clamp joint at s = 0 has the half Voronoi length:
+    twice the stiffness and half the rest rotation, which makes the clamp second-order accurate.
     """
     check_range("twist_armature_scale", twist_armature_scale, 1.0, 1e6)
     n, ds = params.n_segments, params.segment_length_m
@@ -292,9 +291,13 @@ def add_filament(
     m = params.linear_density_kg_m * ds
     i_axial = 0.5 * m * (r_out**2 + r_in**2)
     i_trans = m * (ds**2 / 12.0 + (r_out**2 + r_in**2) / 4.0)
-    k_bend = params.bending_stiffness_nm2 / ds
     armature = (twist_armature_scale - 1.0) * i_axial
-    bodies, geoms, joints, twists = [], [], [], []
+    hinge_stiffness = {
+        "twist": params.torsional_stiffness_nm2 / ds,
+        "side": params.side_bending_stiffness_nm2 / ds,
+        "bend": params.bending_stiffness_nm2 / ds,
+    }
+    bodies, geoms, joints = [], [], []
     body = parent
     for j in range(n):
         body = body.add_body(
@@ -306,27 +309,29 @@ def add_filament(
             inertia=(i_axial, i_trans, i_trans),
             explicitinertial=True,
         )
-        if params.twist_hinge and math.isfinite(params.twist_hinge_stiffness_nm):
-            # MuJoCo allows no rotation after a ball joint in one body, so the hinge comes first; its axis is
-            # set to the rest mid-tangent whenever the rest shape changes (`rest_twist_axes`).
-            k_twist = (2.0 if j == 0 else 1.0) * params.twist_hinge_stiffness_nm
+        scale = 2.0 if j == 0 else 1.0
+        if params.joints == "ball":
+            stiffness = scale * params.bending_stiffness_nm2 / ds
             body.add_joint(
-                name=twist_name(index, j),
-                type=mujoco.mjtJoint.mjJNT_HINGE,
-                axis=(1.0, 0.0, 0.0),
-                stiffness=k_twist,
-                damping=k_twist * params.damping_time_s,
-                armature=max(armature, i_axial),
+                name=joint_name(index, j),
+                type=mujoco.mjtJoint.mjJNT_BALL,
+                stiffness=stiffness,
+                damping=stiffness * params.damping_time_s,
+                armature=armature,
             )
-            twists.append(twist_name(index, j))
-        stiffness = 2.0 * k_bend if j == 0 else k_bend
-        body.add_joint(
-            name=joint_name(index, j),
-            type=mujoco.mjtJoint.mjJNT_BALL,
-            stiffness=stiffness,
-            damping=stiffness * params.damping_time_s,
-            armature=armature,
-        )
+            joints.append((joint_name(index, j),))
+        else:
+            for kind, axis in zip(HINGE_KINDS, np.eye(3)):
+                stiffness = scale * hinge_stiffness[kind]
+                body.add_joint(
+                    name=hinge_name(index, j, kind),
+                    type=mujoco.mjtJoint.mjJNT_HINGE,
+                    axis=tuple(axis),
+                    stiffness=stiffness,
+                    damping=stiffness * params.damping_time_s,
+                    armature=armature,
+                )
+            joints.append(tuple(hinge_name(index, j, kind) for kind in HINGE_KINDS))
         body.add_geom(
             name=geom_name(index, j),
             type=mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -337,8 +342,7 @@ def add_filament(
         )
         bodies.append(body_name(index, j))
         geoms.append(geom_name(index, j))
-        joints.append(joint_name(index, j))
-    return FilamentHandle(index, tuple(bodies), tuple(geoms), tuple(joints), tuple(twists))
+    return FilamentHandle(index, params.joints, tuple(bodies), tuple(geoms), tuple(joints))
 
 
 def rest_quaternions(n_segments: int, ds: float, darboux: np.ndarray) -> np.ndarray:
@@ -352,14 +356,115 @@ def rest_quaternions(n_segments: int, ds: float, darboux: np.ndarray) -> np.ndar
     return out
 
 
-def rest_twist_axes(n_segments: int, ds: float, darboux: np.ndarray) -> np.ndarray:
-    """(n, 3) twist-hinge axes in each parent frame: x turned by half the joint's rest rotation (mid-tangent).
-
-    The clamp joint carries half a rotation (`rest_quaternions`), so its axis is turned by a quarter.
-    """
-    out = np.empty((n_segments, 3))
-    for j, portion in ((0, 0.25), (1, 0.5)):
-        quat = rest_rotation_quat(darboux, portion * ds)
-        mujoco.mju_rotVecQuat(out[j], np.array([1.0, 0.0, 0.0]), quat)
-    out[2:] = out[1]
+def _quat_rotate(quat: np.ndarray, vec: np.ndarray) -> np.ndarray:
+    out = np.empty(3)
+    mujoco.mju_rotVecQuat(out, np.asarray(vec, dtype=float), quat)
     return out
+
+
+def _quat_inverse(quat: np.ndarray) -> np.ndarray:
+    return np.array([quat[0], -quat[1], -quat[2], -quat[3]])
+
+
+def _hinge_chain(triad: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Quaternion of three hinges applied in turn and their axes in the successive joint frames.
+
+    `triad` (3, 3) holds the physical axes (parent frame, HINGE_KINDS order) that the hinges must turn about
+    at `angles`; each axis is expressed in the frame left by the hinges before it.
+    """
+    quat = np.array([1.0, 0.0, 0.0, 0.0])
+    axes = np.empty((3, 3))
+    for k in range(3):
+        axes[k] = _quat_rotate(_quat_inverse(quat), triad[k])
+        step = np.empty(4)
+        mujoco.mju_axisAngle2Quat(step, axes[k], float(angles[k]))
+        mujoco.mju_mulQuat(quat, quat.copy(), step)
+    return quat, axes
+
+
+def rest_hinges(darboux: np.ndarray, ds: float, bend_axis: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    """Hinge axes (2, 3, 3) and rest angles (2, 3), rad, of the clamp and of an interior joint.
+
+    The rest rotation is exp(portion [Omega]x) with Omega = `darboux` (tau, k1, k2), 1/m, and portion ds / 2
+    for the clamp, ds for the others. The axes are the material triad at the joint's mid-point (twist about
+    the mid-tangent, out-of-plane normal, curl axis), so that the hinge springs measure the rod's own twist
+    and bending there; `bend_axis` (unit, normal to x) is the curl axis to use when the rest shape is
+    straight (default z). Without rest twist the angles are (0, 0, kappa portion); with it, they are solved
+    so that the three hinges reproduce the rest rotation exactly.
+    """
+    darboux = np.asarray(darboux, dtype=float)
+    tau, kappa = darboux[0], math.hypot(darboux[1], darboux[2])
+    if kappa > 0:
+        curl = np.array([0.0, darboux[1], darboux[2]]) / kappa
+    else:
+        curl = np.array([0.0, 0.0, 1.0]) if bend_axis is None else np.asarray(bend_axis, dtype=float)
+    axes, angles = np.empty((2, 3, 3)), np.empty((2, 3))
+    for j, portion in enumerate((ds / 2, ds)):
+        half = np.empty(4)
+        mujoco.mju_axisAngle2Quat(half, curl, kappa * portion / 2)
+        tangent = _quat_rotate(half, np.array([1.0, 0.0, 0.0]))
+        triad = np.stack([tangent, np.cross(tangent, curl), curl])
+        guess = np.array([tau * portion, 0.0, kappa * portion])
+        if tau != 0.0:
+            target = rest_rotation_quat(darboux, portion)
+
+            def residual(theta: np.ndarray, triad=triad, target=target) -> np.ndarray:
+                quat = _hinge_chain(triad, theta)[0]
+                return quat * np.sign(quat @ target) - target
+
+            guess = least_squares(residual, guess, xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        angles[j] = guess
+        axes[j] = _hinge_chain(triad, guess)[1]
+    return axes, angles
+
+
+@dataclass(frozen=True, eq=False)
+class ChainJoints:
+    """Compiled joint indices of filaments that share a joint model: writes rest shapes and perturbations."""
+
+    joints: JointModel
+    ids: np.ndarray
+    """(F, n, k) joint ids, root to tip; k = 1 (ball) or 3 (hinges, HINGE_KINDS order)."""
+    qpos: np.ndarray
+    """(F, n, 4) quaternion or (F, n, 3) hinge-angle indices into qpos / qpos_spring."""
+
+    @classmethod
+    def bind(cls, model: mujoco.MjModel, handles: list[FilamentHandle]) -> ChainJoints:
+        """Resolve the joints of `handles` (all of one joint model) in a compiled model."""
+        kinds = {h.joints for h in handles}
+        if len(kinds) != 1:
+            raise ParameterError(f"filaments of one chain set must share a joint model, got {sorted(kinds)}")
+        return cls(
+            kinds.pop(),
+            np.stack([h.joint_ids(model) for h in handles]),
+            np.stack([h.qpos_addresses(model) for h in handles]),
+        )
+
+    def set_rest(self, model: mujoco.MjModel, darboux: np.ndarray, ds: float, bend_axes: np.ndarray) -> None:
+        """Write each filament's rest shape: Darboux vector (F, 3) (tau, k1, k2), 1/m, segment length ds, m.
+
+        `bend_axes` (F, 3): each filament's curl axis (unit, normal to x), used by hinges while straight.
+        """
+        darboux = np.atleast_2d(np.asarray(darboux, dtype=float))
+        if self.joints == "ball":
+            model.qpos_spring[self.qpos] = np.stack(
+                [rest_quaternions(self.ids.shape[1], ds, w) for w in darboux]
+            )
+            return
+        for f, (w, axis) in enumerate(zip(darboux, np.atleast_2d(bend_axes))):
+            axes, angles = rest_hinges(w, ds, axis)
+            model.jnt_axis[self.ids[f, 0]] = axes[0]
+            model.jnt_axis[self.ids[f, 1:]] = axes[1]
+            model.qpos_spring[self.qpos[f, 0]] = angles[0]
+            model.qpos_spring[self.qpos[f, 1:]] = angles[1]
+
+    def perturb(self, data: mujoco.MjData, rng: np.random.Generator, sigma_rad: float) -> None:
+        """Set every joint to a random rotation of standard deviation `sigma_rad` (rad) per axis."""
+        if self.joints == "hinges":
+            data.qpos[self.qpos] = rng.normal(0.0, sigma_rad, size=self.qpos.shape)
+            return
+        quat = np.empty(4)
+        for row, vec in zip(self.qpos.reshape(-1, 4), rng.normal(0.0, sigma_rad, size=(self.qpos[..., 0].size, 3))):
+            angle = float(np.linalg.norm(vec))
+            mujoco.mju_axisAngle2Quat(quat, vec / (angle + 1e-300), angle)
+            data.qpos[row] = quat  # `row` is an index array: data.qpos[row] would be a copy

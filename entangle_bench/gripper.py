@@ -17,13 +17,7 @@ import numpy as np
 
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
-from entangle_bench.filament import (
-    FilamentHandle,
-    FilamentParams,
-    add_filament,
-    rest_quaternions,
-    rest_twist_axes,
-)
+from entangle_bench.filament import ChainJoints, FilamentHandle, FilamentParams, add_filament
 
 BendingPlaneMode = Literal["random", "radial_out", "radial_in", "tangential", "fixed"]
 
@@ -166,59 +160,54 @@ class Gripper:
     params: GripperParams
     filaments: list[FilamentHandle]
     hub_name: str = "hub"
-    _spring_adr: np.ndarray | None = None
+    _joints: ChainJoints | None = None
     _body_ids: np.ndarray | None = None
-    _twist_ids: np.ndarray | None = None
 
     def bind(self, model: mujoco.MjModel) -> None:
-        """Resolve qpos_spring addresses, twist-hinge ids and segment body ids in a compiled model."""
-        self._spring_adr = np.stack([f.qpos_addresses(model) for f in self.filaments])
+        """Resolve joint and segment body indices in a compiled model."""
+        self._joints = ChainJoints.bind(model, self.filaments)
         self._body_ids = np.stack([f.body_ids(model) for f in self.filaments])
-        self._twist_ids = np.stack([f.twist_ids(model) for f in self.filaments])
 
     @property
-    def spring_addresses(self) -> np.ndarray:
-        """(F, n, 4) qpos / qpos_spring indices of every ball joint."""
-        if self._spring_adr is None:
+    def joints(self) -> ChainJoints:
+        """The filaments' joints (rest shapes, perturbations)."""
+        if self._joints is None:
             raise RuntimeError("Gripper.bind(model) must be called after compiling")
-        return self._spring_adr
+        return self._joints
+
+    @property
+    def body_ids(self) -> np.ndarray:
+        """(F, n) body ids of every filament's segments, root to tip."""
+        if self._body_ids is None:
+            raise RuntimeError("Gripper.bind(model) must be called after compiling")
+        return self._body_ids
+
+    @property
+    def root_body_ids(self) -> np.ndarray:
+        """(F,) body ids of the filaments' root segments, the hub's children."""
+        return self.body_ids[:, 0]
 
     def centerlines(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """(F, n + 1, 3) joint positions root to tip of every filament, m (needs mj_kinematics done)."""
         ds = self.params.filament.segment_length_m
-        ids = self._body_ids
-        if ids is None:
-            raise RuntimeError("Gripper.bind(model) must be called after compiling")
+        ids = self.body_ids
         out = np.empty((ids.shape[0], ids.shape[1] + 1, 3))
         out[:, :-1] = data.xpos[ids]
         out[:, -1] = data.xpos[ids[:, -1]] + ds * data.xmat[ids[:, -1]].reshape(-1, 3, 3)[:, :, 0]
         return out
 
-    def darboux(self, curvature_per_m: float, angles_rad: np.ndarray) -> np.ndarray:
-        """(F, 3) rest Darboux vectors (tau, k1, k2), 1/m: curvature kappa toward the given world azimuths."""
+    @staticmethod
+    def bend_axes(angles_rad: np.ndarray) -> np.ndarray:
+        """(F, 3) curl axes in each clamp frame for the given world azimuths of the bending planes."""
         psi = np.asarray(angles_rad, dtype=float)
-        return curvature_per_m * np.stack([np.zeros_like(psi), np.sin(psi), np.cos(psi)], axis=1)
-
-    def rest_pose(self, curvature_per_m: float, angles_rad: np.ndarray) -> np.ndarray:
-        """(F, n, 4) spring reference quaternions for curvature kappa toward the given world azimuths."""
-        fil = self.params.filament
-        return np.stack(
-            [rest_quaternions(fil.n_segments, fil.segment_length_m, w)
-             for w in self.darboux(curvature_per_m, angles_rad)]
-        )
+        return np.stack([np.zeros_like(psi), np.sin(psi), np.cos(psi)], axis=1)
 
     def set_pressure(self, model: mujoco.MjModel, pressure_pa: float, angles_rad: np.ndarray) -> float:
-        """Write the rest shape for `pressure_pa` (qpos_spring, twist-hinge axes) into the model; return kappa, 1/m."""
+        """Write the rest shape for `pressure_pa` into the model (spring references, hinge axes); return kappa, 1/m."""
         fil = self.params.filament
         kappa = fil.curvature_per_m(pressure_pa)
-        darboux = self.darboux(kappa, angles_rad)
-        model.qpos_spring[self.spring_addresses] = np.stack(
-            [rest_quaternions(fil.n_segments, fil.segment_length_m, w) for w in darboux]
-        )
-        if self._twist_ids is not None and self._twist_ids.size:
-            model.jnt_axis[self._twist_ids] = np.stack(
-                [rest_twist_axes(fil.n_segments, fil.segment_length_m, w) for w in darboux]
-            )
+        axes = self.bend_axes(angles_rad)
+        self.joints.set_rest(model, kappa * axes, fil.segment_length_m, axes)
         return kappa
 
 

@@ -19,7 +19,7 @@ from entangle_bench.registry import Registry
 
 C = TypeVar("C")
 
-Integrator = Literal["euler", "implicitfast", "implicit", "rk4"]
+Integrator = Literal["euler", "implicitfast", "implicit", "rk4", "discrete"]
 Solver = Literal["cg", "newton", "pgs"]
 
 
@@ -45,7 +45,7 @@ class Numerics:
 
     def __post_init__(self) -> None:
         check_range("numerics.timestep_s", self.timestep_s, 1e-6, 0.02)
-        check_choice("numerics.integrator", self.integrator, ("euler", "implicitfast", "implicit", "rk4"))
+        check_choice("numerics.integrator", self.integrator, ("euler", "implicitfast", "implicit", "rk4", "discrete"))
         check_choice("numerics.solver", self.solver, ("cg", "newton", "pgs"))
         check_range("numerics.iterations", self.iterations, 1, 10000)
         check_range("numerics.tolerance", self.tolerance, 0.0, 1.0)
@@ -63,6 +63,7 @@ class Numerics:
             "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
             "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
             "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+            "discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
         }[self.integrator]
         opt.solver = {
             "cg": mujoco.mjtSolver.mjSOL_CG,

@@ -24,6 +24,7 @@ import dataclasses
 import hashlib
 import importlib.metadata
 import json
+import os
 import platform
 import sys
 import tempfile
@@ -117,6 +118,11 @@ def versions() -> dict[str, str]:
     }
 
 
+def state_path(state_dir: str | os.PathLike, trial: str, name: str) -> Path:
+    """Where a trial's saved state `name` (a snapshot, or 'series') lies: `<state_dir>/<trial_id>_<name>.npz`."""
+    return Path(state_dir) / f"{trial}_{name}.npz"
+
+
 def _unstable_reason(exc: BaseException) -> str:
     """One-line reason of an unstable trial."""
     return exc.reason if isinstance(exc, WatchdogTripped) else f"{type(exc).__name__}:{exc}"
@@ -140,7 +146,7 @@ def simulate(
     env = TASKS.get(task).make_environment(config, seed)
     physics, bench_task = env.physics, env.task
     model, data = physics.model.ptr, physics.data.ptr
-    prefix = None if state_dir is None else Path(state_dir) / trial_id(task, config, seed)
+    trial = trial_id(task, config, seed)
     time_step = env.reset()
     row: dict[str, Any] = {"outcome": "", "failure_mode": "", "unstable_reason": "", "unstable_time_s": None}
     series: dict[str, list[float]] = {}
@@ -168,8 +174,8 @@ def simulate(
                         taken.add(name)
                         snap = bench_task.snapshot(physics)
                         row.update({f"{name}.{k}": v for k, v in snap.metrics.items()})
-                        if prefix is not None:
-                            atomic_save_npz(prefix.with_name(f"{prefix.name}_{name}.npz"), **snap.arrays)
+                        if state_dir is not None:
+                            atomic_save_npz(state_path(state_dir, trial, name), **snap.arrays)
         except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
             # FatalError: MuJoCo aborted the step, e.g. an exploding state overflowed the constraint arena.
             row.update(outcome="unstable", unstable_reason=_unstable_reason(exc), unstable_time_s=physics.time())
@@ -181,8 +187,8 @@ def simulate(
         row.update(bench_task.metrics(physics))
         row["sim_time_s"] = physics.time()
         arrays = {name: np.asarray(values) for name, values in series.items()}
-        if arrays and prefix is not None:
-            atomic_save_npz(prefix.with_name(f"{prefix.name}_series.npz"), **arrays)
+        if arrays and state_dir is not None:
+            atomic_save_npz(state_path(state_dir, trial, "series"), **arrays)
         complete = True
     finally:
         for observer in started:

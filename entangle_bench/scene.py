@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
 
 from entangle_bench import effects as fx
-from entangle_bench.config import check_range
+from entangle_bench.config import check_choice, check_range
+from entangle_bench.errors import ParameterError
 from entangle_bench.geoms import GeomClasses, role_of
 from entangle_bench.gripper import Gripper, GripperParams, add_gripper, filament_positions
 from entangle_bench.presets import Numerics
@@ -47,6 +48,17 @@ class SceneConfig:
     effects: fx.Effects = field(default_factory=fx.Effects)
     contact: ContactParams = field(default_factory=ContactParams)
     numerics: Numerics = field(default_factory=Numerics)
+    object_weld: Literal["none", "world", "hub"] = "none"
+    """A weld equality (OBJECT_WELD, inactive until switched on) holding the object to the world or the hub."""
+
+    def __post_init__(self) -> None:
+        check_choice("object_weld", self.object_weld, ("none", "world", "hub"))
+        if self.object_weld != "none" and self.object_name is None:
+            raise ParameterError(f"object_weld = {self.object_weld!r} needs an object; the scene has none")
+
+
+#: Name of the equality that welds the object to its holder (`SceneConfig.object_weld`).
+OBJECT_WELD = "object_weld"
 
 
 @dataclass
@@ -64,6 +76,11 @@ class Scene:
     def object_body(self) -> int:
         """Body id of the object, -1 if the scene has none."""
         return self.model.body("object").id if self.object_info is not None else -1
+
+    @property
+    def object_weld(self) -> int:
+        """Equality id of the object's weld (OBJECT_WELD), -1 if the scene has none."""
+        return self.model.equality(OBJECT_WELD).id if self.config.object_weld != "none" else -1
 
 
 def build_scene(
@@ -96,6 +113,18 @@ def build_scene(
 
         info = objects.add_object(
             spec, config.object_name, config.object_params, pos=object_pos, quat=object_quat
+        )
+    if config.object_weld != "none":
+        # Inactive at first; the task sets its relative pose and switches it on (`ScenePhysics.clamp_object`).
+        # The stiffest stable constraint (time constant 2 dt): the object sags by about g (2 dt)^2 under its weight.
+        spec.add_equality(
+            name=OBJECT_WELD,
+            type=mujoco.mjtEq.mjEQ_WELD,
+            objtype=mujoco.mjtObj.mjOBJ_BODY,
+            name1="object",
+            name2="hub" if config.object_weld == "hub" else "world",
+            active=False,
+            solref=(2.0 * config.numerics.timestep_s, 1.0),
         )
     collision_group = {"ground": fx.GROUND, "object": fx.OBJECT, "filament": fx.FILAMENT}
     roles = {geom.name: role_of(geom.name)[0] for geom in spec.geoms}

@@ -45,7 +45,7 @@ from entangle_bench.executors import ProcessExecutor, RayExecutor, SerialExecuto
 from entangle_bench.results import TrialLog
 from entangle_bench.runner import TrialSpec, run_trials
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
-from entangle_bench.suite.top_drape import make_environment
+from entangle_bench.suite.top_drape import TopDrape
 
 TASK = "top_drape/eight_branch_tree"
 STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -53,7 +53,7 @@ STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 def snapshot(seed: int, time_s: float) -> tuple[mujoco.MjModel, np.ndarray]:
     """The default trial of `seed` at `time_s`: its model (pressure set) and full physics state."""
-    env = make_environment(resolve_config(TASK), seed)
+    env = TopDrape.make_environment(resolve_config(TASK), seed)
     env.reset()
     physics, task = env.physics, env.task
     while physics.time() < time_s:

@@ -207,7 +207,7 @@ def hanging_trajectory(effects: fx.Effects) -> np.ndarray:
     config = SceneConfig(gripper=gripper, effects=effects, numerics=get_preset("fast").numerics)
     scene = build_scene(config, hub_pos=(0.0, 0.0, 0.5))
     model, data = scene.model, mujoco.MjData(scene.model)
-    data.qpos[scene.gripper.spring_addresses[0, 3]] = (math.cos(0.05), math.sin(0.05), 0.0, 0.0)
+    data.qpos[scene.gripper.joints.qpos[0, 3]] = (math.cos(0.05), math.sin(0.05), 0.0, 0.0)
     history = []
     while data.time < 0.6:
         scene.gripper.set_pressure(model, min(1.0, data.time / 0.3) * 40e3, np.zeros(1))

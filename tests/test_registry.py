@@ -63,7 +63,9 @@ def test_every_registry_uses_the_one_mechanism(registry, kind, some):
 def test_task_entries_hold_their_factory_and_config_type():
     assert TASKS.names(tag="stability") == ["probe/curl_in_air"]
     assert set(TASKS.names(tag="benchmark")) == {f"top_drape/{n}" for n in OBJECTS.names()}
-    assert set(TASKS.names(tag="mesh")) == {f"top_drape/{n}" for n in OBJECTS.names(tag="mesh")}
+    assert set(TASKS.names(tag="pullout")) == {f"pullout/{n}" for n in OBJECTS.names()}
+    meshes = OBJECTS.names(tag="mesh")
+    assert set(TASKS.names(tag="mesh")) == {f"{family}/{n}" for family in ("top_drape", "pullout") for n in meshes}
     probe, tree = TASKS.get("probe/curl_in_air"), TASKS.get("top_drape/eight_branch_tree")
     assert probe.config_type is not tree.config_type and probe.make_environment is not tree.make_environment
     assert probe.domain == "probe" and tree.domain == "top_drape"

@@ -9,14 +9,14 @@ import pytest
 
 from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
-from entangle_bench.suite.top_drape import make_environment
+from entangle_bench.suite.top_drape import TopDrape
 from entangle_bench.viz import in_frame, object_geometry, pack, surface, unpack
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _env(task):
-    env = make_environment(resolve_config(task, "fast", SHORT_SEQUENCE), 0)
+    env = TopDrape.make_environment(resolve_config(task, "fast", SHORT_SEQUENCE), 0)
     env.reset()
     return env
 

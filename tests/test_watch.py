@@ -20,7 +20,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from entangle_bench.errors import ParameterError
 from entangle_bench.recording import TrialRecorder, read_recording
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
-from entangle_bench.suite.top_drape import make_environment
+from entangle_bench.suite.top_drape import TopDrape
 from entangle_bench.video import TrialVideo
 
 FRAME_PERIOD_S = 0.25
@@ -140,7 +140,7 @@ def test_metrics_and_metadata_are_readable(watched):
 
 
 def test_mesh_object_parts_are_triangle_lists(tmp_path):
-    env = make_environment(resolve_config("dexnet_endstop_holder", "fast", SHORT_SEQUENCE), 0)
+    env = TopDrape.make_environment(resolve_config("dexnet_endstop_holder", "fast", SHORT_SEQUENCE), 0)
     env.reset()
     recorder = TrialRecorder(tmp_path / "mesh.mcap")
     recorder.start(env)
@@ -153,7 +153,7 @@ def test_mesh_object_parts_are_triangle_lists(tmp_path):
 
 
 def test_an_incomplete_trial_leaves_no_file(tmp_path):
-    env = make_environment(resolve_config("sphere", "fast", SHORT_SEQUENCE), 0)
+    env = TopDrape.make_environment(resolve_config("sphere", "fast", SHORT_SEQUENCE), 0)
     env.reset()
     recorder, video = TrialRecorder(tmp_path / "x.mcap"), TrialVideo(tmp_path / "x.mp4", size=(64, 48))
     for observer in (recorder, video):

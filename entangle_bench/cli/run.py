@@ -1,7 +1,8 @@
 """`entangle-bench run SUITE|TASK`: seeded trials, resumable, with a summary table and plot.
 
 Everything the command line asks for is checked before any trial simulates: numbers and lists, the suite or
-task, every condition's configuration, the output folder (created and written to), the executor.
+task, every condition's configuration, the output folder (created and written to), the executor. Pull-out
+trials add the pull-out summary `pullout.csv` and its figures (`entangle_bench.pullout.write_report`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from entangle_bench.executors import EXECUTORS, make_executor
 from entangle_bench.metrics.stats import success_table
 from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import PRESETS
+from entangle_bench.pullout import write_report
 from entangle_bench.results import FAILED, LOG_NAME, TrialLog, atomic_write_csv, write_trials
 from entangle_bench.runner import Watch, run_trials
 from entangle_bench.stability import envelope_warnings
@@ -162,6 +164,14 @@ def run(args: argparse.Namespace) -> int:
         if column != "param.offset_m" and rows[column].nunique() > 1:
             path = plot_success_vs(rows, column, out / f"success_vs_{column.removeprefix('param.')}.png")
             print(f"plot: {path}")
+    report = write_report(rows, out)
+    if report:
+        table = pd.read_csv(report[0])
+        columns = ["condition", "scored", "released", "slid_off", "held", "peak_force_median_n",
+                   "toughness_median_j", "reference_toughness_j"]
+        with pd.option_context("display.width", 160, "display.max_columns", 20):
+            print(table[columns].to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+        print("pull-out: " + "  ".join(str(p) for p in report))
     print(f"rows: {out / 'trials.csv'}  summary: {out / 'summary.csv'}")
     failed = rows[rows["outcome"] == FAILED]
     if len(failed):

@@ -66,3 +66,66 @@ def contact_summary(
         kinds=kinds,
         geom_pairs=geom_pairs,
     )
+
+
+@dataclass(frozen=True)
+class ObjectSupport:
+    """Forces on the object in one state, world frame, N: what carries it and how.
+
+    `by_part` sums the forces filaments exert on each object geom (named by its part, e.g. 'branch03');
+    contacts of a filament segment that touches two or more object geoms at once go to `pinched` instead
+    (a segment squeezed between two faces of one rigid object is a clamp, not a grasp); `ground` is the
+    ground's force on the object; `filament_filament_n` the summed normal force between different filaments
+    (the entanglement network's internal load).
+    """
+
+    by_part: dict[str, np.ndarray]
+    pinched: np.ndarray
+    ground: np.ndarray
+    filament_filament_n: float
+
+    @property
+    def filament_total(self) -> np.ndarray:
+        """(3,) everything the filaments exert on the object, pinches included, N."""
+        return sum(self.by_part.values(), self.pinched.copy())
+
+
+def object_support(model: mujoco.MjModel, data: mujoco.MjData, geoms: GeomClasses) -> ObjectSupport:
+    """Forces on the object by source in the current state (active contacts only), world frame, N.
+
+    `mj_contactForce` gives each contact's force in its contact frame (rows: normal from geom1 to geom2, then
+    the tangents), the force on geom2; the force on geom1 is its opposite.
+    """
+    contacts = data.contact
+    active = np.flatnonzero(np.asarray(contacts.efc_address[: data.ncon]) >= 0)
+    pairs = np.asarray(contacts.geom[: data.ncon], dtype=np.int64)[active].reshape(-1, 2)
+    wrench = np.zeros(6)
+    on_object: list[tuple[int, int, np.ndarray]] = []  # (object geom, other geom, force on the object)
+    ground, ff = np.zeros(3), 0.0
+    for i, (g1, g2) in zip(active, pairs):
+        obj1, obj2 = geoms.is_object[g1], geoms.is_object[g2]
+        f1, f2 = geoms.filament[g1], geoms.filament[g2]
+        if not (obj1 or obj2 or (f1 >= 0 and f2 >= 0 and f1 != f2)):
+            continue
+        mujoco.mj_contactForce(model, data, int(i), wrench)
+        if not (obj1 or obj2):
+            ff += abs(wrench[0])
+            continue
+        force = contacts.frame[i].reshape(3, 3).T @ wrench[:3]
+        obj, other, force = (g2, g1, force) if obj2 else (g1, g2, -force)
+        if geoms.is_ground[other]:
+            ground += force
+        elif geoms.filament[other] >= 0:
+            on_object.append((obj, other, force))
+    touched: dict[int, set[int]] = {}
+    for obj, other, _ in on_object:
+        touched.setdefault(other, set()).add(obj)
+    by_part: dict[str, np.ndarray] = {}
+    pinched = np.zeros(3)
+    for obj, other, force in on_object:
+        if len(touched[other]) > 1:
+            pinched += force
+        else:
+            part = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, obj).removeprefix("object_")
+            by_part[part] = by_part.get(part, np.zeros(3)) + force
+    return ObjectSupport(by_part, pinched, ground, ff)

@@ -33,7 +33,7 @@ class CurveFile:
 _ZIP_MAGIC, _NPY_MAGIC = (b"PK\x03\x04", b"PK\x05\x06"), b"\x93NUMPY"
 
 
-def _open_npz(path: Path) -> np.lib.npyio.NpzFile:
+def open_npz(path: Path) -> np.lib.npyio.NpzFile:
     """Open an .npz archive; FileFormatError if it is no archive (text, a bare .npy array) or unreadable."""
     try:
         with open(path, "rb") as handle:
@@ -59,7 +59,7 @@ def load_curves(path: str | Path, *, drop_degenerate: bool = False) -> CurveFile
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
-    archive = _open_npz(path)
+    archive = open_npz(path)
     with archive:
         keys = [k for k in archive.files if k not in _SIDE_KEYS]
         if "curves" in keys:
@@ -111,7 +111,7 @@ def _read(archive: np.lib.npyio.NpzFile, path: Path, key: str) -> np.ndarray:
 def load_contacts(path: str | Path) -> tuple[np.ndarray, np.ndarray] | None:
     """Contact points (n, 3) in m and kinds (n,) str from an archive, or None if it has none."""
     path = Path(path)
-    archive = _open_npz(path)
+    archive = open_npz(path)
     with archive:
         if "contact_points" not in archive.files:
             return None

@@ -1,4 +1,4 @@
-"""Objects made of MuJoCo primitives: balls, cylinders and tubes, a cube and a bar-clamp bracket.
+"""Objects made of MuJoCo primitives: balls, cylinders and tubes, a horizontal rod, a cube and a bar-clamp bracket.
 
 Masses are plausible assumptions for everyday test objects, documented on each params class.
 """
@@ -102,6 +102,28 @@ def build_cylinder(p: CylinderParams) -> Shape:
                          (t / 2, half_len, p.height_m / 2), quat))
     dims["wall_thickness_m"] = t
     return Shape(tuple(parts), p.mass_kg, dims)
+
+
+@dataclasses.dataclass(frozen=True)
+class RodParams:
+    """Horizontal rod of `diameter_m` x `length_m` lying along y; default a 10 mm x 150 mm aluminium bar (30 g)."""
+
+    diameter_m: float = 0.010
+    length_m: float = 0.15
+    mass_kg: float = 0.03
+
+    def __post_init__(self):
+        for name, low, high in (("diameter_m", 0.001, 0.5), ("length_m", 0.002, 2.0)):
+            check_range(name, getattr(self, name), low, high)
+        check_range("mass_kg", self.mass_kg, 0.0, 20.0, low_open=True)
+
+
+@register_object("rod", RodParams(), "horizontal rod (bar) lying along y, 10 mm x 150 mm, 30 g")
+def build_rod(p: RodParams) -> Shape:
+    """Shape of a cylinder lying on its side with its axis along y."""
+    r, half = p.diameter_m / 2, p.length_m / 2
+    rod = Cylinder("rod", (0.0, -half, r), (0.0, half, r), r)
+    return Shape((rod,), p.mass_kg, {"diameter_m": p.diameter_m, "length_m": p.length_m})
 
 
 @dataclasses.dataclass(frozen=True)

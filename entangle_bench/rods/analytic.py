@@ -14,6 +14,7 @@
   R' = R [Omega]x, x' = R e1, m' = -x' x n, m = R C (Omega - Omega0), C = diag(G J, E I, E I),
   n(s) = rho A g (L - s), R(0) = R0, x(0) = x0, m(L) = 0 (Antman, ch. 8), again by collocation,
   continued from the straight rod: first in gravity, then in the rest curvature.
+* `peel_force_n`: steady peeling of a naturally curved rod off a frictionless cylinder it lies on unstressed.
 
 Frames are 3x3 matrices whose columns are (t, d1, d2) in world coordinates (see `case.py`).
 """
@@ -62,6 +63,18 @@ def _exp_and_integral(omega: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.
     rot = eye + f1[:, None, None] * a + f2[:, None, None] * a2
     integral = s[:, None] * eye[0] + f2[:, None] * a[:, 0] + f3[:, None] * a2[:, 0]
     return rot, integral
+
+
+def peel_force_n(bending_stiffness_nm2: float, curvature_per_m: float) -> float:
+    """Steady force that peels a rod of natural curvature kappa off a frictionless cylinder of radius 1/kappa, N.
+
+    Wrapped, the rod is unstressed; peeled and pulled straight, it stores E I kappa^2 / 2 per unit length. With
+    nothing dissipated, each unit of pull peels a unit length, so F = E I kappa^2 / 2 = E I / (2 R^2), the energy
+    release rate of the elastica (Kendall, J. Phys. D 8, 1975, for the adhesive analogue).
+    """
+    check_range("bending_stiffness_nm2", bending_stiffness_nm2, 0.0, None, low_open=True)
+    check_range("curvature_per_m", curvature_per_m, 0.0, None)
+    return 0.5 * bending_stiffness_nm2 * curvature_per_m**2
 
 
 def rest_pose(case: RodCase, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 
 from entangle_bench.effects import NO_CONTACT, apply_effects
-from entangle_bench.filament import FilamentParams, add_filament, rest_twist_axes
+from entangle_bench.filament import ChainJoints, FilamentParams, add_filament
 from entangle_bench.presets import Numerics
 from entangle_bench.rods.case import RodCase
 from entangle_bench.scene import step_until_rest
@@ -58,10 +58,11 @@ def build_rod(
     n_segments: int,
     numerics: Numerics,
     damping_time_s: float = STATICS_DAMPING_TIME_S,
-) -> tuple[mujoco.MjModel, np.ndarray, list[str]]:
-    """Compile the clamped rod; return the model, its qpos addresses (n, 4) and body names.
+) -> tuple[mujoco.MjModel, ChainJoints, list[str]]:
+    """Compile the clamped rod in its rest shape; return the model, its joints and body names.
 
-    `damping_time_s` (s) is the joints' Kelvin-Voigt relaxation time (statics default: 0.2 s).
+    `damping_time_s` (s) is the joints' Kelvin-Voigt relaxation time (statics default: 0.2 s). The springs'
+    references hold the case's rest shape; the state is still straight.
     """
     spec = mujoco.MjSpec()
     numerics.apply(spec)
@@ -78,9 +79,9 @@ def build_rod(
     )
     apply_effects(spec, NO_CONTACT, {}, [list(handle.body_names)], np.zeros((1, 2)), case.length)
     model = spec.compile()
-    if handle.twist_names:
-        model.jnt_axis[handle.twist_ids(model)] = rest_twist_axes(n_segments, case.length / n_segments, case.darboux)
-    return model, handle.qpos_addresses(model), list(handle.body_names)
+    joints = ChainJoints.bind(model, [handle])
+    joints.set_rest(model, case.darboux, case.length / n_segments, np.array([0.0, 0.0, 1.0]))
+    return model, joints, list(handle.body_names)
 
 
 def stiffness_matrix(model: mujoco.MjModel, data: mujoco.MjData, step: float = 1e-6) -> np.ndarray:
@@ -114,12 +115,45 @@ def relax_to_stable_equilibrium(
     """Dynamic relaxation to a stable rest state; return (settled, number of saddles left).
 
     After each rest the generalized stiffness matrix is checked: a negative eigenvalue means an unstable
-    equilibrium (a saddle), so the state is pushed PERTURBATION_RAD (largest dof) along that mode and
-    relaxed again. `length` (m) scales the rest speed 1e-6 L / 0.3 m/s; `max_time_s` (simulated s)
-    bounds each relaxation.
+    equilibrium (a saddle). The state is then pushed PERTURBATION_RAD (largest dof) along that mode both ways,
+    each push relaxed to a stable state, and the one of lower potential energy kept: which side of a saddle
+    the nearest minimum lies on depends on the discretization, the energy does not. `length` (m) scales the
+    rest speed 1e-6 L / 0.3 m/s; `max_time_s` (simulated s) bounds each relaxation.
     """
     speed_tol = 1e-6 * length / 0.3
-    for saddles in range(MAX_STABILITY_CHECKS + 1):
+    if not step_until_rest(model, data, max_time_s, speed_tol_m_s=speed_tol, kinetic_damping=True):
+        return False, 0
+    values, vectors = np.linalg.eigh(stiffness_matrix(model, data))
+    if values[0] >= -NEGATIVE_STIFFNESS_TOL * np.max(np.abs(values)):
+        return True, 0
+    saddle = data.qpos.copy()
+    mode = vectors[:, 0] / np.max(np.abs(vectors[:, 0]))
+    best: tuple[float, np.ndarray, float, int] | None = None
+    for sign in (1.0, -1.0):
+        data.qpos[:] = saddle
+        data.qvel[:] = 0.0
+        mujoco.mj_integratePos(model, data.qpos, sign * PERTURBATION_RAD * mode, 1.0)
+        settled, left = _relax_pushed(model, data, speed_tol, max_time_s)
+        if settled:
+            mujoco.mj_forward(model, data)
+            mujoco.mj_energyPos(model, data)
+            energy = float(data.energy[0])
+            if best is None or energy < best[0]:
+                best = (energy, data.qpos.copy(), data.time, left)
+    if best is None:
+        return False, MAX_STABILITY_CHECKS
+    data.qpos[:] = best[1]
+    data.qvel[:] = 0.0
+    data.time = best[2]
+    mujoco.mj_forward(model, data)
+    return True, 1 + best[3]
+
+
+def _relax_pushed(
+    model: mujoco.MjModel, data: mujoco.MjData, speed_tol: float, max_time_s: float
+) -> tuple[bool, int]:
+    """Relax a state pushed off a saddle, pushing again along new unstable modes; (settled, saddles left)."""
+    for saddles in range(MAX_STABILITY_CHECKS):
         if not step_until_rest(model, data, max_time_s, speed_tol_m_s=speed_tol, kinetic_damping=True):
             return False, saddles
         values, vectors = np.linalg.eigh(stiffness_matrix(model, data))

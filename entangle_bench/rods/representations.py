@@ -36,7 +36,7 @@ import numpy as np
 
 from entangle_bench.config import check_range
 from entangle_bench.errors import ParameterError
-from entangle_bench.filament import rest_quaternions, rest_rotation_quat
+from entangle_bench.filament import ChainJoints, rest_quaternions, rest_rotation_quat
 from entangle_bench.presets import DEFAULT_PRESET, Numerics, get_preset
 from entangle_bench.registry import Registry
 from entangle_bench.rods import mujoco_engine
@@ -60,9 +60,9 @@ class RodModel:
     n_segments: int
     integrator: str
     """The integrator actually used (`flex1d` always uses `discrete`)."""
-    rest_addresses: np.ndarray | None = None
-    """(n, 4) qpos_spring addresses of the ball joints whose rest rotations set the rest curvature (the
-    actuation); None where the rest shape is fixed when the model is made (`cable`, `flex1d`)."""
+    joints: ChainJoints | None = None
+    """The harness chain's joints, whose springs' references set the rest shape (the actuation); None where
+    the rest shape is fixed when the model is made (`cable`, `flex1d`, `ball_twist`)."""
 
 
 def _base_quat(case: RodCase) -> tuple[float, float, float, float]:
@@ -94,15 +94,13 @@ def _chain_vertices(ids: list[int], ds: float, skip_half_first: bool) -> Callabl
 @REPRESENTATIONS.register("ball", tags=("harness",))
 def _build_ball(case: RodCase, n: int, numerics: Numerics, damping_time_s: float) -> RodModel:
     """The harness filament (`mujoco_engine.build_rod`) in its rest shape."""
-    model, adr, bodies = mujoco_engine.build_rod(case, n, numerics, damping_time_s)
-    rest = rest_quaternions(n, case.length / n, case.darboux)
-    model.qpos_spring[adr] = rest
+    model, joints, bodies = mujoco_engine.build_rod(case, n, numerics, damping_time_s)
     data = mujoco.MjData(model)
-    data.qpos[adr] = rest
+    data.qpos[joints.qpos] = model.qpos_spring[joints.qpos]
     mujoco.mj_forward(model, data)
     ids = [model.body(b).id for b in bodies]
     vertices = _chain_vertices(ids, case.length / n, False)
-    return RodModel(model, data, vertices, "ball", n, numerics.integrator, adr)
+    return RodModel(model, data, vertices, "ball", n, numerics.integrator, joints)
 
 
 def series_twist_stiffness(case: RodCase, ds: float) -> float:
@@ -179,7 +177,7 @@ def _build_ball_twist(case: RodCase, n: int, numerics: Numerics, damping_time_s:
     mujoco.mj_forward(model, data)
     ids = [model.body(name).id for name in names]
     vertices = _chain_vertices(ids, ds, False)
-    return RodModel(model, data, vertices, "ball_twist", n, numerics.integrator, adr)
+    return RodModel(model, data, vertices, "ball_twist", n, numerics.integrator)
 
 
 def _cable_xml(case: RodCase, n: int, h: float, damping: float) -> str:

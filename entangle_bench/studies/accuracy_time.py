@@ -54,7 +54,6 @@ from tqdm import tqdm  # noqa: E402
 from entangle_bench import resources  # noqa: E402
 from entangle_bench.atomic import atomic_savefig, atomic_write_text  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
-from entangle_bench.filament import rest_quaternions  # noqa: E402
 from entangle_bench.presets import PRESETS, Numerics, Preset  # noqa: E402
 from entangle_bench.results import atomic_write_csv  # noqa: E402
 from entangle_bench.rods.case import RodCase, centerline_error, load_case  # noqa: E402
@@ -72,6 +71,8 @@ SMOKE_OVERRIDES = (
     "phases.lift_height_m=0.01", "phases.hold_time_s=0.1", "phases.release_time_s=0.05",
 )
 SAMPLE_S = 0.01
+#: Curl axis of the hinge joints while the swing filament is straight (its rest curl is about z).
+BEND_AXIS = np.array([0.0, 0.0, 1.0])
 
 #: Presets proposed from this study's results (results/accuracy_time/README.md), measured next to the
 #: current PRESETS: fast and balanced move onto the rod Pareto front, balanced gets the segments the trial's
@@ -209,11 +210,10 @@ def simulate_tip(
         model.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
     ds = case.length / config.n_segments
     if ramp_s is not None:
-        if rod.rest_addresses is None:
+        if rod.joints is None:
             raise ParameterError(f"{config.representation} cannot change its rest curvature at run time")
-        straight = rest_quaternions(config.n_segments, ds, np.zeros(3))
-        model.qpos_spring[rod.rest_addresses] = straight
-        data.qpos[rod.rest_addresses] = straight
+        rod.joints.set_rest(model, np.zeros(3), ds, BEND_AXIS)
+        data.qpos[rod.joints.qpos] = model.qpos_spring[rod.joints.qpos]
         mujoco.mj_forward(model, data)
     per_sample = max(1, round(SAMPLE_S / model.opt.timestep))
     samples = [rod.vertices(data)[-1].copy()]
@@ -222,9 +222,7 @@ def simulate_tip(
     for _ in range(round(duration_s / SAMPLE_S)):
         if ramp_s is not None:
             fraction = min(1.0, data.time / ramp_s)
-            model.qpos_spring[rod.rest_addresses] = rest_quaternions(
-                config.n_segments, ds, fraction * case.darboux
-            )
+            rod.joints.set_rest(model, fraction * case.darboux, ds, BEND_AXIS)
         mujoco.mj_step(model, data, per_sample)
         tip = rod.vertices(data)[-1]
         if not np.all(np.isfinite(tip)) or np.linalg.norm(tip - samples[0]) > 2 * case.length:

@@ -4,9 +4,10 @@
 
 `TASKS` (`suite.base.TaskRegistry`) holds every task as 'domain/name' with its config type, default config and
 environment factory; families register with `suite.base.register_task`. Domains: `top_drape` (one task per
-object of the object library, `suite.top_drape`) and `probe` (the stability probe, `suite.probe`). A bare
-name means `top_drape/<name>`. `resolve_config` is the one place a task's configuration is resolved: default
-config, numerical preset, `a.b=value` overrides, centering offset.
+object of the object library, `suite.top_drape`), `pullout` (the pull-out test, one task per object,
+`suite.pullout`) and `probe` (the stability probe, `suite.probe`). A bare name means `top_drape/<name>`, and
+`<domain>_<name>` means `<domain>/<name>` (`pullout_sphere`). `resolve_config` is the one place a task's
+configuration is resolved: default config, numerical preset, `a.b=value` overrides, centering offset.
 """
 
 from __future__ import annotations
@@ -19,10 +20,11 @@ from dm_control.rl import control
 from entangle_bench.config import apply_overrides, replace_path
 from entangle_bench.errors import ParameterError
 from entangle_bench.presets import apply_preset
-from entangle_bench.suite import probe, top_drape  # noqa: F401  (the task families register their tasks)
+from entangle_bench.suite import probe, pullout, top_drape  # noqa: F401  (the task families register their tasks)
 from entangle_bench.suite.base import TASKS, BenchTask, Outcome, TaskDef, register_task
 
 __all__ = [
+    "SHORT_PULL_SEQUENCE",
     "SHORT_SEQUENCE",
     "TASKS",
     "BenchTask",
@@ -43,6 +45,16 @@ SHORT_SEQUENCE = [
     "phases.lift_speed_m_s=0.1",
     "phases.hold_time_s=0.3",
     "phases.release_time_s=0.1",
+]
+
+#: Overrides for a short pull-out sequence (about 1 s simulated): the drape of SHORT_SEQUENCE, then a 30 mm pull
+#: at 0.1 m/s. Use with `resolve_config("pullout/<object>", preset, SHORT_PULL_SEQUENCE + [...])`.
+SHORT_PULL_SEQUENCE = [
+    *SHORT_SEQUENCE[:3],
+    "pull.clamp_time_s=0.05",
+    "pull.accel_time_s=0.02",
+    "pull.speed_m_s=0.1",
+    "pull.max_travel_m=0.03",
 ]
 
 

@@ -150,15 +150,24 @@ class TaskDef(Generic[C]):
 
 
 class TaskRegistry(Registry[TaskDef[Any]]):
-    """Tasks by 'domain/name'; a bare name means the default domain (DEFAULT_DOMAIN)."""
+    """Tasks by 'domain/name'; a bare name means the default domain (DEFAULT_DOMAIN), 'domain_name' domain/name."""
+
+    def resolve(self, name: str) -> str:
+        """The registered 'domain/name' that `name` means: itself, 'top_drape/<name>' or, for
+        '<domain>_<rest>' with a registered domain, '<domain>/<rest>' (e.g. 'pullout_sphere'); unknown names raise
+        UnknownNameError listing the known ones."""
+        candidates = [name] if "/" in name else [f"{DEFAULT_DOMAIN}/{name}"]
+        if "/" not in name:
+            domains = {known.split("/", 1)[0] for known in self}
+            candidates += [f"{d}/{name[len(d) + 1 :]}" for d in sorted(domains) if name.startswith(f"{d}_")]
+        for key in candidates:
+            if key in self:
+                return key
+        raise UnknownNameError(self.kind, name, self.names())
 
     def entry(self, name: str) -> Entry[TaskDef[Any]]:
-        """Entry of 'domain/name' or of a bare name in the default domain."""
-        key = name if "/" in name else f"{DEFAULT_DOMAIN}/{name}"
-        try:
-            return super().entry(key)
-        except UnknownNameError:
-            raise UnknownNameError(self.kind, name, self.names()) from None
+        """Entry of a task name as `resolve` reads it."""
+        return super().entry(self.resolve(name))
 
 
 TASKS = TaskRegistry("task")

@@ -21,15 +21,17 @@ from dm_env import specs
 
 from entangle_bench import effects as fx
 from entangle_bench.config import check_range
+from entangle_bench.errors import ParameterError
 from entangle_bench.geoms import KINDS
 from entangle_bench.gripper import GripperParams, bending_angles
 from entangle_bench.metrics.acn import acn_total
-from entangle_bench.metrics.contacts import contact_summary
+from entangle_bench.metrics.contacts import ContactSummary, ObjectSupport, contact_summary, object_support
 from entangle_bench.metrics.local_fields import local_fields
 from entangle_bench.presets import Numerics
 from entangle_bench.scene import ContactParams, Scene, SceneConfig
 from entangle_bench.suite.base import BenchTask, Snapshot
 from entangle_bench.viz import object_geometry, pack
+from entangle_bench.watchdog import mechanical_energy
 
 MAX_HUB_SPEED_M_S = 2.0
 
@@ -67,11 +69,49 @@ class GripperTaskConfig:
 G = TypeVar("G", bound=GripperTaskConfig)
 
 
+@dataclass
+class EnergyLedger:
+    """Work and losses summed over every physics step since the ledger started, J.
+
+    Each step adds dt times: the hub force on the filament roots (from the step's forward pass) . hub velocity;
+    the damper power -qfrc_damper . qvel; the constraint power qfrc_constraint . qvel plus, since the filaments'
+    joint velocities leave out the hub's motion, the constraint force on the filaments . hub velocity. Velocities
+    are those the step ends with, so each term is a force times the step's displacement (qvel holds the
+    filaments' motion relative to the moving hub). First order in dt and
+    consistent with explicit integration (implicit integrators damp with the velocity the step ends with). Then
+    hub work = change of mechanical energy + damper loss - constraint work.
+    """
+
+    roots: np.ndarray
+    """(nbody,) 1 for the filament root segments, else 0."""
+    filaments: np.ndarray
+    """(nbody,) 1 for every filament segment, else 0."""
+    hub_work_j: float = 0.0
+    """Work the hub did on the filaments, J."""
+    damping_loss_j: float = 0.0
+    """Energy the joint dampers dissipated, J (>= 0)."""
+    constraint_work_j: float = 0.0
+    """Work of the constraint forces (contacts, weld), J (< 0: they dissipated)."""
+
+    def book(self, model: mujoco.MjModel, data: mujoco.MjData, hub_velocity: np.ndarray, dt: float) -> None:
+        """Add the physics step just taken (mj_step; hub moving at `hub_velocity`, m/s; step dt, s)."""
+        mujoco.mj_rnePostConstraint(model, data)  # cfrc_int: force from each parent; cfrc_ext: constraint force
+        hub_force = (self.roots @ data.cfrc_int)[3:]
+        on_filaments = (self.filaments @ data.cfrc_ext)[3:]
+        qvel = data.qvel
+        self.hub_work_j += dt * float(hub_force @ hub_velocity)
+        self.damping_loss_j -= dt * float(data.qfrc_damper @ qvel)
+        self.constraint_work_j += dt * float(data.qfrc_constraint @ qvel + on_filaments @ hub_velocity)
+
+
 class ScenePhysics(dm_mujoco.Physics):
     """MuJoCo physics of a scene with named read-outs; the hub moves at `hub_velocity` (m/s) each substep."""
 
     scene: Scene
     hub_velocity: np.ndarray
+    ledger: EnergyLedger | None
+    """Energy bookkeeping over the physics steps, once `start_ledger` was called (None before)."""
+    _conaffinity: np.ndarray
 
     @classmethod
     def from_scene(cls, scene: Scene) -> ScenePhysics:
@@ -79,15 +119,29 @@ class ScenePhysics(dm_mujoco.Physics):
         physics = cls.from_model(dm_mujoco.wrapper.MjModel(scene.model))
         physics.scene = scene
         physics.hub_velocity = np.zeros(3)
+        physics.ledger = None
+        physics._conaffinity = physics.model.ptr.geom_conaffinity.copy()
         return physics
 
     def step(self, nstep: int = 1) -> None:
-        """Advance `nstep` physics steps, moving the mocap hub by hub_velocity * dt before each."""
+        """Advance `nstep` physics steps, moving the mocap hub by hub_velocity * dt before each (and book energy)."""
         model, data = self.model.ptr, self.data.ptr
+        dt = model.opt.timestep
         with self.check_invalid_state():
             for _ in range(nstep):
-                data.mocap_pos[0] += self.hub_velocity * model.opt.timestep
+                data.mocap_pos[0] += self.hub_velocity * dt
                 mujoco.mj_step(model, data)
+                if self.ledger is not None:
+                    self.ledger.book(model, data, self.hub_velocity, dt)
+
+    def start_ledger(self) -> EnergyLedger:
+        """Start (or restart) the energy bookkeeping from zero (`unclamp_object` stops it)."""
+        gripper, nbody = self.scene.gripper, self.model.ptr.nbody
+        roots, filaments = np.zeros(nbody), np.zeros(nbody)
+        roots[gripper.root_body_ids] = 1.0
+        filaments[gripper.body_ids] = 1.0
+        self.ledger = EnergyLedger(roots, filaments)
+        return self.ledger
 
     def hub_position(self) -> np.ndarray:
         """Hub position, m."""
@@ -111,10 +165,96 @@ class ScenePhysics(dm_mujoco.Physics):
         """(F, n + 1, 3) filament centerlines, m."""
         return self.scene.gripper.centerlines(self.model.ptr, self.data.ptr)
 
-    def contact_counts(self) -> dict[str, int]:
-        """Contacts MuJoCo detected (within margin, active or not), by kind of `geoms.KINDS`."""
+    def contact_counts(self, active_only: bool = False) -> dict[str, int]:
+        """Contacts MuJoCo detected (within margin; only those with constraint rows if asked), by kind of KINDS."""
         data = self.data.ptr
-        return self.scene.geoms.count_kinds(data.contact.geom[: data.ncon])
+        pairs = data.contact.geom[: data.ncon]
+        if active_only:
+            pairs = pairs[data.contact.efc_address[: data.ncon] >= 0]
+        return self.scene.geoms.count_kinds(pairs)
+
+    def clamp_object(self) -> None:
+        """Switch on the object's weld (`SceneConfig.object_weld`) where the object is now; take it off the ground.
+
+        The weld's anchor is the object's center of mass and its relative pose the current one (`model.eq_data`:
+        anchor in the holder's frame, the holder's pose in the object's frame), so nothing jumps; the holder,
+        not the ground, then carries the object (object-ground contact off until `unclamp_object`).
+        """
+        model, data = self.model.ptr, self.data.ptr
+        weld = self.scene.object_weld
+        if weld < 0:
+            raise ParameterError("this scene has no object weld (SceneConfig.object_weld = 'none')")
+        body, holder = model.eq_obj1id[weld], model.eq_obj2id[weld]
+        holder_rot = data.xmat[holder].reshape(3, 3)
+        model.eq_data[weld, 0:3] = holder_rot.T @ (data.xipos[body] - data.xpos[holder])
+        model.eq_data[weld, 3:6] = model.body_ipos[body]
+        inverse = np.empty(4)
+        mujoco.mju_negQuat(inverse, data.xquat[body])
+        mujoco.mju_mulQuat(model.eq_data[weld, 6:10], inverse, data.xquat[holder])
+        data.eq_active[weld] = 1
+        geoms = self.scene.geoms
+        model.geom_conaffinity[geoms.is_object] &= ~fx.GROUND
+        model.geom_conaffinity[geoms.is_ground] &= ~fx.OBJECT
+
+    def unclamp_object(self) -> None:
+        """Switch the object's weld off (if the scene has one), restore the object-ground contact, stop the ledger."""
+        self.ledger = None
+        if self.scene.object_weld >= 0:
+            self.data.ptr.eq_active[self.scene.object_weld] = 0
+        self.model.ptr.geom_conaffinity[:] = self._conaffinity
+
+    def object_weld_force(self) -> np.ndarray:
+        """(3,) force the object's weld exerts on the object, world frame, N (zero while off).
+
+        The weld's first three constraint rows (`efc_type` equality, `efc_id` the weld) hold the force on its
+        first body, the object, in world axes at the anchor (tested against a hanging object's weight).
+        """
+        data = self.data.ptr
+        rows = np.flatnonzero(
+            (data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (data.efc_id == self.scene.object_weld)
+        )
+        return data.efc_force[rows[:3]].copy() if len(rows) else np.zeros(3)
+
+    def object_contact_force(self) -> np.ndarray:
+        """(3,) sum of the contact forces filaments exert on the object, world frame, N."""
+        return self.object_support().filament_total
+
+    def object_support(self) -> ObjectSupport:
+        """Forces on the object by source (filaments by part, pinches, ground), world frame, N."""
+        return object_support(self.model.ptr, self.data.ptr, self.scene.geoms)
+
+    def object_weight(self) -> np.ndarray:
+        """(3,) gravity force on the object, world frame, N (zero without gravity or object)."""
+        model = self.model.ptr
+        if self.scene.object_body < 0 or model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
+            return np.zeros(3)
+        return model.body_mass[self.scene.object_body] * model.opt.gravity.copy()
+
+    def hub_force(self) -> np.ndarray:
+        """(3,) force the hub exerts on the filament roots, world frame, N (runs `mj_rnePostConstraint`).
+
+        `cfrc_int` of a root segment is the force its parent, the hub, exerts on it (tested: a filament hanging
+        at rest needs + its weight).
+        """
+        model, data = self.model.ptr, self.data.ptr
+        mujoco.mj_rnePostConstraint(model, data)
+        return data.cfrc_int[self.scene.gripper.root_body_ids, 3:].sum(axis=0)
+
+    def mechanical_energy_j(self) -> float:
+        """Gravity, spring and kinetic energy of the bodies that move dynamically, J (the mocap hub left out).
+
+        Of the current positions and velocities: recomputes kinematics and the mass matrix only, so the forces
+        and contacts of the last step's forward pass (what the other read-outs report) stay as they were.
+        """
+        model, data = self.model.ptr, self.data.ptr
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_makeM(model, data)
+        energy = mechanical_energy(model, data)
+        if not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
+            mocap = model.body_mocapid >= 0
+            energy += float(np.sum(model.body_mass[mocap] * (data.xipos[mocap] @ model.opt.gravity)))
+        return energy
 
 
 class GripperTask(BenchTask[G]):
@@ -133,15 +273,8 @@ class GripperTask(BenchTask[G]):
         self._pressure_fraction = 0.0
 
     def perturb_joints(self, physics: ScenePhysics, std_rad: float) -> None:
-        """Rotate every filament joint by a random rotation vector (normal, `std_rad` per axis) from the seed."""
-        data = physics.data.ptr
-        adr = physics.scene.gripper.spring_addresses.reshape(-1, 4)
-        rotvec = self.rng.normal(0.0, std_rad, size=(len(adr), 3))
-        quat = np.empty(4)
-        for row, vec in zip(adr, rotvec):
-            angle = float(np.linalg.norm(vec))
-            mujoco.mju_axisAngle2Quat(quat, vec / (angle + 1e-300), angle)
-            data.qpos[row] = quat  # `row` is an index array: data.qpos[row] on the right would be a copy
+        """Rotate every filament joint at random (normal, `std_rad` per axis) from the seed."""
+        physics.scene.gripper.joints.perturb(physics.data.ptr, self.rng, std_rad)
 
     def action_spec(self, physics: ScenePhysics) -> specs.BoundedArray:
         """Hub velocity (m/s, 3) and pressure fraction (0..1)."""
@@ -185,26 +318,32 @@ class GripperTask(BenchTask[G]):
         return self.gripper_observation(physics)
 
     def snapshot(self, physics: Any) -> Snapshot:
-        """ACN, local fields (spheres of LOCAL_ACN_DIAMETER_M) and active contacts by kind; curves and contacts.
+        """The entanglement of the current state (`entanglement_snapshot`), with the object's parts (`viz.pack`)
+        among the arrays so that scripts/plot_entanglement.py draws the object."""
+        model, data = physics.model.ptr, physics.data.ptr
+        snap = entanglement_snapshot(physics.centerlines(), contact_summary(model, data, physics.scene.geoms))
+        parts = pack(object_geometry(model, data, physics.scene.geoms.is_object))
+        return Snapshot(snap.metrics, {**snap.arrays, **parts})
 
-        Arrays: `curves` (F, n + 1, 3) m, `contact_points` (c, 3) m, `contact_kinds` (c,), `contact_forces_n`
-        (c,) N, and the object's parts (`viz.pack`): the input of scripts/plot_entanglement.py.
-        """
-        curves = physics.centerlines()
-        fields = local_fields(curves, LOCAL_ACN_DIAMETER_M)
-        contacts = contact_summary(physics.model.ptr, physics.data.ptr, physics.scene.geoms)
-        metrics = {
-            "acn_total": acn_total(curves),
-            "local_acn_mean": fields.mean_acn,
-            "local_acn_max": fields.max_acn,
-            "local_count_mean": fields.mean_count,
-        }
-        metrics.update({f"contacts.{k}": v for k, v in contacts.counts.items()})
-        arrays = {
-            "curves": curves,
-            "contact_points": contacts.points,
-            "contact_kinds": contacts.kinds,
-            "contact_forces_n": contacts.normal_forces_n,
-            **pack(object_geometry(physics.model.ptr, physics.data.ptr, physics.scene.geoms.is_object)),
-        }
-        return Snapshot(metrics, arrays)
+
+def entanglement_snapshot(curves: np.ndarray, contacts: ContactSummary) -> Snapshot:
+    """ACN, local fields (spheres of LOCAL_ACN_DIAMETER_M) and active contacts by kind of one state.
+
+    `curves` (F, n + 1, 3) filament centerlines, m. Arrays: `curves`, `contact_points` (c, 3) m, `contact_kinds`
+    (c,), `contact_forces_n` (c,) N: the input of scripts/plot_entanglement.py.
+    """
+    fields = local_fields(curves, LOCAL_ACN_DIAMETER_M)
+    metrics = {
+        "acn_total": acn_total(curves),
+        "local_acn_mean": fields.mean_acn,
+        "local_acn_max": fields.max_acn,
+        "local_count_mean": fields.mean_count,
+    }
+    metrics.update({f"contacts.{k}": v for k, v in contacts.counts.items()})
+    arrays = {
+        "curves": curves,
+        "contact_points": contacts.points,
+        "contact_kinds": contacts.kinds,
+        "contact_forces_n": contacts.normal_forces_n,
+    }
+    return Snapshot(metrics, arrays)

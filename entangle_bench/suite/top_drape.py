@@ -10,37 +10,29 @@ and `held` are taken at the start of the lift and of the release.
 
 from __future__ import annotations
 
-import collections
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
-import mujoco
 import numpy as np
-from dm_control.rl import control
 
-from entangle_bench import objects
 from entangle_bench.config import check_range
-from entangle_bench.scene import SceneConfig, build_scene
-from entangle_bench.suite.base import Outcome, register_task
-from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, GripperTask, GripperTaskConfig, ScenePhysics
-
-PHASES = ("approach", "actuate", "settle", "lift", "hold", "release", "done")
+from entangle_bench.metrics.contacts import ObjectSupport
+from entangle_bench.suite.base import Outcome
+from entangle_bench.suite.drape import (
+    DrapeConfig,
+    DrapePhases,
+    DrapeSchedule,
+    DrapeTask,
+    register_object_tasks,
+)
+from entangle_bench.suite.gripper_task import MAX_HUB_SPEED_M_S, ScenePhysics
 
 
 @dataclass(frozen=True)
-class Phases:
-    """Timing and geometry of the scripted top-drape sequence (SI units)."""
+class Phases(DrapePhases):
+    """Timing and geometry of the scripted top-drape sequence (SI units): the drape, then the lift (hub speed
+    `lift_speed_m_s`), the hold (`hold_time_s`) and the release (pressure back to zero in `release_time_s`)."""
 
-    start_clearance_m: float = 0.01
-    """Gap between the straight filament tips and the object's top at the start, m."""
-    drape_depth_m: float = 0.10
-    """How far below the object's top the straight filament tips would reach at the end of the approach, m."""
-    approach_speed_m_s: float = 0.1
-    ramp_time_s: float = 1.0
-    """Pressure ramp from 0 to the operating pressure, s."""
-    settle_time_s: float = 1.0
     lift_height_m: float = 0.10
     """Hub rise during the lift, m."""
     lift_speed_m_s: float = 0.05
@@ -48,84 +40,51 @@ class Phases:
     release_time_s: float = 0.5
 
     def __post_init__(self) -> None:
-        check_range("phases.start_clearance_m", self.start_clearance_m, 0.0, 1.0)
-        check_range("phases.drape_depth_m", self.drape_depth_m, 0.0, 1.0)
-        check_range("phases.approach_speed_m_s", self.approach_speed_m_s, 0.0, MAX_HUB_SPEED_M_S, low_open=True)
-        check_range("phases.ramp_time_s", self.ramp_time_s, 0.0, 60.0)
-        check_range("phases.settle_time_s", self.settle_time_s, 0.0, 60.0)
-        check_range("phases.lift_height_m", self.lift_height_m, 0.0, 2.0, low_open=True)
-        check_range("phases.lift_speed_m_s", self.lift_speed_m_s, 0.0, MAX_HUB_SPEED_M_S, low_open=True)
-        check_range("phases.hold_time_s", self.hold_time_s, 0.0, 600.0, low_open=True)
+        for name, high in (("lift_height_m", 2.0), ("lift_speed_m_s", MAX_HUB_SPEED_M_S), ("hold_time_s", 600.0)):
+            check_range(f"phases.{name}", getattr(self, name), 0.0, high, low_open=True)
         check_range("phases.release_time_s", self.release_time_s, 0.0, 60.0)
+        super().__post_init__()
 
 
 @dataclass(frozen=True)
-class TopDrapeConfig(GripperTaskConfig):
+class TopDrapeConfig(DrapeConfig):
     """Everything that defines one top-drape trial except the seed: the gripper scene plus object and sequence."""
 
-    object_name: str = "eight_branch_tree"
-    object: Any = None
-    """The object's parameter dataclass (None: the object's defaults)."""
     phases: Phases = field(default_factory=Phases)
-    offset_m: float = 0.0
-    """Centering offset: horizontal distance between the gripper axis and the object axis, m."""
-    offset_angle_rad: float | None = None
-    """Direction of the offset; None draws it uniformly from the trial seed."""
     success_margin_m: float = 0.02
     """Success: the object's lowest point stays at least this far above the ground for the whole hold, m."""
+    max_tilt_deg: float = 45.0
+    """Success also needs the object upright: its vertical axis within this angle of the world's for the whole
+    hold, deg (a toppled or dangling object is not a grasp)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        check_range("offset_m", self.offset_m, 0.0, 1.0)
-        if self.offset_angle_rad is not None:
-            check_range("offset_angle_rad", self.offset_angle_rad, -2 * math.pi, 2 * math.pi)
         check_range("success_margin_m", self.success_margin_m, 0.0, 1.0, low_open=True)
-
-    def scene_config(self) -> SceneConfig:
-        """The scene: gripper, object and ground."""
-        return SceneConfig(
-            gripper=self.gripper,
-            object_name=self.object_name,
-            object_params=self.object,
-            effects=self.effects,
-            contact=self.contact,
-            numerics=self.numerics,
-        )
+        check_range("max_tilt_deg", self.max_tilt_deg, 0.0, 180.0, low_open=True)
 
 
 @dataclass(frozen=True)
-class Schedule:
-    """Absolute phase boundaries (s) and hub heights (m) of one trial."""
+class Schedule(DrapeSchedule):
+    """Absolute phase boundaries (s) and hub heights (m) of one top-drape trial."""
 
-    hub_start_z: float
-    hub_drape_z: float
-    t_actuate: float
-    t_settle: float
-    t_lift: float
     t_hold: float
     t_release: float
     t_end: float
 
-    @classmethod
-    def from_config(cls, config: TopDrapeConfig, object_height_m: float) -> Schedule:
-        """Phase times for an object of the given height."""
-        ph, length = config.phases, config.gripper.filament.length_m
-        start = object_height_m + length + ph.start_clearance_m
-        drape = object_height_m + length - ph.drape_depth_m
-        t_actuate = (start - drape) / ph.approach_speed_m_s
-        t_settle = t_actuate + ph.ramp_time_s
-        t_lift = t_settle + ph.settle_time_s
-        t_hold = t_lift + ph.lift_height_m / ph.lift_speed_m_s
-        t_release = t_hold + ph.hold_time_s
-        return cls(start, drape, t_actuate, t_settle, t_lift, t_hold, t_release, t_release + ph.release_time_s)
+    AFTER_SETTLE = ("lift", "hold", "release")
 
-    def phase(self, t: float) -> str:
-        """Name of the phase at time t (s)."""
-        bounds = (self.t_actuate, self.t_settle, self.t_lift, self.t_hold, self.t_release, self.t_end)
-        for name, end in zip(PHASES, bounds):
-            if t < end - 1e-9:
-                return name
-        return "done"
+    @classmethod
+    def after_settle(cls, config: TopDrapeConfig, t_settled: float) -> tuple[float, float, float]:
+        """Ends of the lift, hold and release, s."""
+        ph = config.phases
+        t_hold = t_settled + ph.lift_height_m / ph.lift_speed_m_s
+        t_release = t_hold + ph.hold_time_s
+        return t_hold, t_release, t_release + ph.release_time_s
+
+    @property
+    def t_lift(self) -> float:
+        """Start of the lift (the end of the settle), s."""
+        return self.t_settled
 
 
 @dataclass
@@ -138,38 +97,41 @@ class _GraspTracking:
     """The object's lowest point cleared the success margin during the lift."""
     low_at_hold_start: bool = False
     hold_failed_at_s: float | None = None
-    """Hold time at which the object first fell below the margin, s."""
+    """Hold time at which the object first fell below the margin or tilted too far, s."""
+    failed_by_tilt: bool = False
+    """The hold failed because the object tilted beyond the limit while still above the margin."""
     hold_reached_s: float = 0.0
-    """Hold time the object stayed above the margin, s."""
+    """Hold time the object stayed above the margin and upright, s."""
+    max_hold_tilt_deg: float = 0.0
+    """Largest tilt of the object's vertical axis during the hold, deg."""
+    peak_lift_force_n: float = 0.0
+    """Largest upward force the filaments exerted on the object (lift and hold), N."""
+    support_samples: int = 0
+    support_z_n: dict[str, float] = field(default_factory=dict)
+    """Sum over hold steps of the upward force on the object by source, N (divide by support_samples)."""
 
 
-class TopDrape(GripperTask[TopDrapeConfig]):
+def object_tilt_deg(quat: np.ndarray) -> float:
+    """Angle between an object's vertical axis (body z, quaternion w, x, y, z) and the world's, deg."""
+    w, x, y, _ = quat
+    return math.degrees(math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (x * x + y * y)))))
+
+
+class TopDrape(DrapeTask[TopDrapeConfig]):
     """Drape the filament array over an object, actuate, lift and hold."""
 
-    PHASES = PHASES
     SNAPSHOTS = {"actuated": "lift", "held": "release"}
-
-    def __init__(self, config: TopDrapeConfig, object_height_m: float, seed: int):
-        super().__init__(config, seed)
-        self.schedule = Schedule.from_config(config, object_height_m)
-        self._tracking = _GraspTracking()
-        self._object_z0 = 0.0
+    SCHEDULE = Schedule
+    schedule: Schedule
+    _tracking: _GraspTracking
+    _object_z0: float
+    """Height of the object's origin at the start, m."""
 
     def initialize_episode(self, physics: ScenePhysics) -> None:
-        """Draw bending planes, offset direction and joint perturbations; place the hub above the object."""
-        cfg, model, data = self.config, physics.model.ptr, physics.data.ptr
-        self.reset_actuation(physics)
-        angle = self.rng.uniform(-math.pi, math.pi) if cfg.offset_angle_rad is None else cfg.offset_angle_rad
-        data.mocap_pos[0] = (
-            cfg.offset_m * math.cos(angle),
-            cfg.offset_m * math.sin(angle),
-            self.schedule.hub_start_z,
-        )
-        self.perturb_joints(physics, cfg.perturbation_rad)
-        mujoco.mj_kinematics(model, data)
+        """Set up the drape (`DrapeTask`); remember the object's height and reset the grasp tracking."""
+        super().initialize_episode(physics)
         self._object_z0 = physics.object_pose()[0][2]
         self._tracking = _GraspTracking()
-        super().initialize_episode(physics)
 
     def phase(self, physics: ScenePhysics) -> str:
         """Phase of the scripted sequence the next control step runs in."""
@@ -179,12 +141,8 @@ class TopDrape(GripperTask[TopDrapeConfig]):
         """The reference open-loop policy: (hub vx, vy, vz in m/s, pressure fraction) at the current time."""
         ph, schedule, t = self.config.phases, self.schedule, physics.time()
         phase = schedule.phase(t)
-        vz, pressure = 0.0, 0.0
-        if phase == "approach":
-            vz = -ph.approach_speed_m_s
-        elif phase == "actuate":
-            pressure = (t - schedule.t_actuate) / ph.ramp_time_s if ph.ramp_time_s > 0 else 1.0
-        elif phase in ("settle", "hold"):
+        vz, pressure = self.drape_action(t) or (0.0, 0.0)
+        if phase == "hold":
             pressure = 1.0
         elif phase == "lift":
             vz, pressure = ph.lift_speed_m_s, 1.0
@@ -193,29 +151,47 @@ class TopDrape(GripperTask[TopDrapeConfig]):
         return np.array([0.0, 0.0, vz, min(1.0, max(0.0, pressure))])
 
     def after_step(self, physics: ScenePhysics) -> None:
-        """Track the grasp; decide the outcome once the hold is over.
+        """Track the grasp and what carries the object; decide the outcome once the hold is over.
 
-        Success: the object's lowest point stays at least `success_margin_m` above the ground for the whole
-        hold. Failure modes: never_lifted, dropped_during_lift (low when the hold starts),
-        dropped_during_hold.
+        Success: for the whole hold the object's lowest point stays at least `success_margin_m` above the
+        ground and its vertical axis within `max_tilt_deg` of the world's. Failure modes: never_lifted,
+        dropped_during_lift (low when the hold starts), dropped_during_hold, tilted (held up but tipped).
         """
-        t, s, track = physics.time(), self.schedule, self._tracking
-        low = physics.object_lowest_z()
-        margin = self.config.success_margin_m
-        track.max_rise_m = max(track.max_rise_m, physics.object_pose()[0][2] - self._object_z0)
+        t, s, track, cfg = physics.time(), self.schedule, self._tracking, self.config
+        pos, quat = physics.object_pose()
+        low, tilt = physics.object_lowest_z(), object_tilt_deg(quat)
+        track.max_rise_m = max(track.max_rise_m, pos[2] - self._object_z0)
         phase = s.phase(t - 1e-9)
-        if phase == "lift" and low >= margin:
+        if phase in ("lift", "hold"):
+            support = physics.object_support()
+            track.peak_lift_force_n = max(track.peak_lift_force_n, float(support.filament_total[2]))
+        if phase == "lift" and low >= cfg.success_margin_m:
             track.lifted = True
         if phase == "hold":
-            if track.hold_reached_s == 0.0 and low < margin:
+            self._add_support(support)
+            track.max_hold_tilt_deg = max(track.max_hold_tilt_deg, tilt)
+            if track.hold_reached_s == 0.0 and low < cfg.success_margin_m:
                 track.low_at_hold_start = True
             if track.hold_failed_at_s is None:
-                if low < margin:
+                if low < cfg.success_margin_m or tilt > cfg.max_tilt_deg:
                     track.hold_failed_at_s = t - s.t_hold
+                    track.failed_by_tilt = low >= cfg.success_margin_m
                 else:
                     track.hold_reached_s = t - s.t_hold
         if t >= s.t_release - 1e-9 and self.outcome is None:
             self.decide(self._classify(t))
+
+    def _add_support(self, support: ObjectSupport) -> None:
+        """Add one hold step's upward forces on the object by source to the running sums."""
+        sums, track = self._tracking.support_z_n, self._tracking
+        sources = {"ground": support.ground[2], "pinched": support.pinched[2]}
+        for part, force in support.by_part.items():
+            key = f"part.{part.rstrip('0123456789')}"
+            sources[key] = sources.get(key, 0.0) + force[2]
+        sources["filament_filament_normal"] = support.filament_filament_n
+        for name, value in sources.items():
+            sums[name] = sums.get(name, 0.0) + float(value)
+        track.support_samples += 1
 
     def _classify(self, t: float) -> Outcome:
         """The outcome from the tracking at the end of the hold (time t, s)."""
@@ -225,6 +201,7 @@ class TopDrape(GripperTask[TopDrapeConfig]):
             "lifted": float(track.lifted),
             "hold_reached_s": track.hold_reached_s,
             "hold_failed_at_s": math.nan if track.hold_failed_at_s is None else track.hold_failed_at_s,
+            "max_hold_tilt_deg": track.max_hold_tilt_deg,
         }
         if track.hold_failed_at_s is None:
             return Outcome("success", "", t, evidence)
@@ -232,54 +209,35 @@ class TopDrape(GripperTask[TopDrapeConfig]):
             mode = "never_lifted"
         elif track.low_at_hold_start:
             mode = "dropped_during_lift"
+        elif track.failed_by_tilt:
+            mode = "tilted"
         else:
             mode = "dropped_during_hold"
         return Outcome("failure", mode, t, evidence)
 
     def metrics(self, physics: ScenePhysics) -> dict[str, float]:
-        """Largest rise of the object over the trial (m) and how long the hold held (s)."""
-        return {"lift_height_m": self._tracking.max_rise_m, "hold_time_reached_s": self._tracking.hold_reached_s}
+        """Rise (m), hold reached (s), hold tilt (deg), peak lift force and the hold's support by source.
 
-    def get_observation(self, physics: ScenePhysics) -> collections.OrderedDict:
-        """Filament centerlines, hub and object pose, contact counts by kind, pressure."""
-        pos, quat = physics.object_pose()
-        gripper = self.gripper_observation(physics)
-        return collections.OrderedDict(
-            centerlines=gripper["centerlines"],
-            hub_position=gripper["hub_position"],
-            object_position=pos,
-            object_quaternion=quat,
-            contact_counts=gripper["contact_counts"],
-            pressure=gripper["pressure"],
-        )
-
-
-def make_environment(config: TopDrapeConfig, seed: int) -> control.Environment:
-    """Build the dm-control environment of one trial."""
-    scene = build_scene(config.scene_config(), hub_pos=(0.0, 0.0, 1.0))
-    task = TopDrape(config, scene.object_info.height_m, seed)
-    return control.Environment(
-        ScenePhysics.from_scene(scene),
-        task,
-        time_limit=task.schedule.t_end,
-        n_sub_steps=config.n_sub_steps,
-    )
+        `peak_lift_force_w` and `support.<source>_w` are in units of the object's weight W; the support is the
+        mean upward force over the hold by source (`part.<part>`: filaments on that part of the object,
+        `pinched`, `ground`); `support.filament_filament_normal_n` the mean normal force between filaments, N.
+        """
+        track = self._tracking
+        weight = float(np.linalg.norm(physics.object_weight())) or math.nan
+        row = {
+            "lift_height_m": track.max_rise_m,
+            "hold_time_reached_s": track.hold_reached_s,
+            "max_hold_tilt_deg": track.max_hold_tilt_deg,
+            "peak_lift_force_w": track.peak_lift_force_n / weight,
+        }
+        samples = max(1, track.support_samples)
+        for name, total in sorted(track.support_z_n.items()):
+            mean = total / samples
+            if name == "filament_filament_normal":
+                row["support.filament_filament_normal_n"] = mean
+            else:
+                row[f"support.{name}_w"] = mean / weight
+        return row
 
 
-def _object_task(object_name: str) -> Callable[[], TopDrapeConfig]:
-    """Default-config function of the top-drape task of one object."""
-
-    def default_config() -> TopDrapeConfig:
-        return TopDrapeConfig(object_name=object_name, object=objects.default_params(object_name))
-
-    return default_config
-
-
-for _name in objects.names():
-    register_task(
-        f"top_drape/{_name}",
-        config_type=TopDrapeConfig,
-        make_environment=make_environment,
-        tags=("benchmark",) + (("mesh",) if objects.is_mesh_object(_name) else ()),
-        description=f"top-drape lift-and-hold of {_name}: {objects.description(_name)}",
-    )(_object_task(_name))
+register_object_tasks("top_drape", TopDrapeConfig, TopDrape, "top-drape lift-and-hold", tags=("benchmark",))

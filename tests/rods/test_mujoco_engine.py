@@ -14,8 +14,10 @@ import numpy as np
 import pytest
 
 from entangle_bench.errors import ParameterError
+from entangle_bench.filament import rest_hinges, rest_rotation_quat
 from entangle_bench.presets import get_preset
 from entangle_bench.rods import analytic as an
+from entangle_bench.rods import mujoco_engine
 from entangle_bench.rods.case import centerline_error, load_case
 from entangle_bench.rods.elastica_engine import solve_elastica
 from entangle_bench.rods.mujoco_engine import build_rod, stiffness_matrix
@@ -112,3 +114,55 @@ def test_unsettled_rod_raises_naming_the_case():
     case = _case("soft_cantilever")
     with pytest.raises(ParameterError, match="soft_cantilever"):
         solve_representation(case, "ball", max_time_s=0.05)
+
+
+def _with_hinges(monkeypatch):
+    """Make the rod engine build the harness filament with the hinge joint model."""
+    original = mujoco_engine.filament_params
+    monkeypatch.setattr(
+        mujoco_engine,
+        "filament_params",
+        lambda *args, **kwargs: dataclasses.replace(original(*args, **kwargs), joints="hinges"),
+    )
+
+
+def test_hinge_chain_stiffness_is_the_anisotropic_rod_stiffness(monkeypatch):
+    # Straight rest shape, zero gravity: per segment twist GJ/ds, out-of-plane and in-plane bending EI/ds
+    # (a solid rod has I_side = I_bend), doubled at the clamp.
+    _with_hinges(monkeypatch)
+    case = dataclasses.replace(_case("soft_cantilever"), gravity=(0.0, 0.0, 0.0))
+    n = 5
+    model, _, _ = build_rod(case, n, get_preset("balanced").numerics)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ds = case.length / n
+    per_joint = np.array([case.twist_stiffness, case.bending_stiffness, case.bending_stiffness]) / ds
+    expected = np.diag(np.concatenate([2 * per_joint] + [per_joint] * (n - 1)))
+    np.testing.assert_allclose(stiffness_matrix(model, data), expected, rtol=1e-6, atol=1e-6 * per_joint.max())
+
+
+def test_hinge_chain_fixes_the_sideways_curl(monkeypatch):
+    # The ball chain is 6.0e-2 L off at any resolution (twist stiffness EI); the hinge chain has GJ:
+    # measured 6.7e-3 L at 16 and 2.8e-3 L at 40 segments (first order in 3D).
+    _with_hinges(monkeypatch)
+    case = _case("curl_sideways_gravity")
+    reference = an.reference_centerline(case)[0]
+    errors = [
+        centerline_error(solve_representation(case, "ball", n).centerline, reference, case.length)[0]
+        for n in (16, 40)
+    ]
+    assert errors[1] < 4e-3
+    assert 1.8 < errors[0] / errors[1] < 4.0
+
+
+def test_rest_hinges_reproduce_the_rest_rotation_with_rest_twist():
+    darboux = np.array([30.0, 40.0, -80.0])
+    axes, angles = rest_hinges(darboux, 0.01)
+    for j, portion in enumerate((0.005, 0.01)):
+        quat = np.array([1.0, 0.0, 0.0, 0.0])
+        for axis, angle in zip(axes[j], angles[j]):
+            step = np.empty(4)
+            mujoco.mju_axisAngle2Quat(step, axis, angle)
+            mujoco.mju_mulQuat(quat, quat.copy(), step)
+        target = rest_rotation_quat(darboux, portion)
+        np.testing.assert_allclose(quat * np.sign(quat @ target), target, atol=1e-12)

@@ -13,11 +13,12 @@ import functools
 import numpy as np
 import pytest
 
-from entangle_bench.suite import SHORT_SEQUENCE, TASKS, BenchTask, resolve_config
+from entangle_bench.suite import SHORT_PULL_SEQUENCE, SHORT_SEQUENCE, TASKS, BenchTask, resolve_config
 
 #: Short-sequence overrides per task family.
 SHORT = {
     "top_drape": SHORT_SEQUENCE,
+    "pullout": SHORT_PULL_SEQUENCE,
     "probe": ["duration_s=0.3", "ramp_time_s=0.1"],
 }
 
