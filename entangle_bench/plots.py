@@ -14,18 +14,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from entangle_bench.atomic import atomic_savefig  # noqa: E402
 from entangle_bench.metrics.stats import success_table  # noqa: E402
 
 
 def save_figure(fig: plt.Figure, path: str | os.PathLike) -> Path:
-    """Save `fig` as PNG at `path` atomically (temporary file + os.replace) and close it."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=120)
+    """Save `fig` as PNG at `path` atomically (`atomic.atomic_savefig`) and close it."""
+    out = atomic_savefig(fig, path, dpi=120)
     plt.close(fig)
-    os.replace(tmp, path)
-    return path
+    return out
 
 
 def plot_success_vs(rows: pd.DataFrame, x: str, path: str | os.PathLike, group: str = "task") -> Path:

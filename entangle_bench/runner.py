@@ -6,27 +6,33 @@ snapshots the task declares at the start of their phases, logs the task's per-st
 observers, and returns the results row with the final environment and watchdog. A trial the watchdog stops,
 or one MuJoCo cannot continue (`PhysicsError`, `mujoco.FatalError`), is `unstable`, whatever the task had
 decided: it is never scored. `run_trial` adds the trial's identity, configuration and versions to the row
-(and can retry an unstable trial at half the timestep); `run_trials` runs many through an `Executor` (local
-worker processes by default), appends each finished row to the trial log at once, skips trials already in the
-log, and shows progress.
+(and can retry an unstable trial at half the timestep, and attach the recording and video observers that
+`Watch` asks for). `run_trials` runs many through an executor (`entangle_bench.executors`: this process,
+local worker processes, or Ray): each worker runs `TrialWorker`, which returns the row and the trial's files;
+the driver writes the files, appends the row to the trial log, skips trials already in the log, and shows
+progress.
+
+Outcomes in a row: `success` and `failure` (the task's decision), `unstable` (stopped by the watchdog or
+MuJoCo) and `failed` (the trial could not be run: its worker died on every attempt, or the trial raised;
+`failed_reason` says which). Only success and failure are scored.
 """
 
 from __future__ import annotations
 
-import concurrent.futures
+import collections
 import dataclasses
 import hashlib
 import importlib.metadata
 import json
-import multiprocessing
 import os
 import platform
 import sys
+import tempfile
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -35,10 +41,12 @@ from dm_control.rl.control import PhysicsError
 from tqdm import tqdm
 
 import entangle_bench
+from entangle_bench.atomic import AtomicFile, atomic_save_npz
 from entangle_bench.config import to_flat_dict
 from entangle_bench.errors import OutcomeError
-from entangle_bench.observers import McapObserver, Observer
-from entangle_bench.results import TrialLog
+from entangle_bench.executors import Executor, WorkerLost
+from entangle_bench.observers import Observer
+from entangle_bench.results import FAILED, TrialLog
 from entangle_bench.suite import TASKS
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
@@ -115,14 +123,6 @@ def state_path(state_dir: str | os.PathLike, trial: str, name: str) -> Path:
     return Path(state_dir) / f"{trial}_{name}.npz"
 
 
-def _save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write arrays to `path` as compressed .npz, atomically."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.npz")
-    np.savez_compressed(tmp, **arrays)
-    os.replace(tmp, path)
-
-
 def _unstable_reason(exc: BaseException) -> str:
     """One-line reason of an unstable trial."""
     return exc.reason if isinstance(exc, WatchdogTripped) else f"{type(exc).__name__}:{exc}"
@@ -148,14 +148,16 @@ def simulate(
     model, data = physics.model.ptr, physics.data.ptr
     trial = trial_id(task, config, seed)
     time_step = env.reset()
-    for observer in observers:
-        observer.start(env)
-    watchdog = Watchdog(model, data, limits or bench_task.watchdog_limits(), bench_task.actuation_energy_j())
     row: dict[str, Any] = {"outcome": "", "failure_mode": "", "unstable_reason": "", "unstable_time_s": None}
     series: dict[str, list[float]] = {}
     taken: set[str] = set()
+    started: list[Observer] = []
     complete = False
     try:
+        for observer in observers:
+            observer.start(env)
+            started.append(observer)
+        watchdog = Watchdog(model, data, limits or bench_task.watchdog_limits(), bench_task.actuation_energy_j())
         try:
             while not time_step.last():
                 time_step = env.step(bench_task.scripted_action(physics))
@@ -173,7 +175,7 @@ def simulate(
                         snap = bench_task.snapshot(physics)
                         row.update({f"{name}.{k}": v for k, v in snap.metrics.items()})
                         if state_dir is not None:
-                            _save_npz(state_path(state_dir, trial, name), snap.arrays)
+                            atomic_save_npz(state_path(state_dir, trial, name), **snap.arrays)
         except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
             # FatalError: MuJoCo aborted the step, e.g. an exploding state overflowed the constraint arena.
             row.update(outcome="unstable", unstable_reason=_unstable_reason(exc), unstable_time_s=physics.time())
@@ -186,12 +188,58 @@ def simulate(
         row["sim_time_s"] = physics.time()
         arrays = {name: np.asarray(values) for name, values in series.items()}
         if arrays and state_dir is not None:
-            _save_npz(state_path(state_dir, trial, "series"), arrays)
+            atomic_save_npz(state_path(state_dir, trial, "series"), **arrays)
         complete = True
     finally:
-        for observer in observers:
+        for observer in started:
             observer.finish(row, complete)
     return TrialResult(row, env, watchdog, arrays)
+
+
+@dataclass(frozen=True)
+class Watch:
+    """Which per-trial files the harness's observers write, and how often (s of simulated time).
+
+    `record`: a Foxglove MCAP recording, `recordings/<trial_id>.mcap` (`recording.TrialRecorder`); `video`: an
+    MP4, `videos/<trial_id>.mp4` (`video.TrialVideo`), `video_size` (width, height) in pixels.
+    """
+
+    record: bool = False
+    record_period_s: float = 0.05
+    video: bool = False
+    video_period_s: float = 0.1
+    video_size: tuple[int, int] = (640, 480)
+
+    def observers(self, spec: TrialSpec, folder: Path) -> list[Observer]:
+        """New observers of one trial writing under `folder` (made per trial: they hold files and renderers)."""
+        out: list[Observer] = []
+        if self.record:
+            from entangle_bench.recording import TrialRecorder
+
+            metadata = {"task": spec.task, "seed": str(spec.seed), "condition": spec.condition,
+                        "trial_id": spec.trial_id}
+            out.append(TrialRecorder(folder / RECORDINGS / f"{spec.trial_id}.mcap", self.record_period_s, metadata))
+        if self.video:
+            from entangle_bench.video import TrialVideo
+
+            out.append(TrialVideo(folder / VIDEOS / f"{spec.trial_id}.mp4", self.video_period_s, size=self.video_size))
+        return out
+
+
+#: Subfolders of a run's output folder that hold per-trial files.
+STATES, RECORDINGS, VIDEOS = "states", "recordings", "videos"
+
+
+def _identity(spec: TrialSpec) -> dict[str, Any]:
+    """The row columns that say which trial a row is: id, task, condition, seed, preset, swept parameters."""
+    return {
+        "trial_id": spec.trial_id,
+        "task": spec.task,
+        "condition": spec.condition,
+        "seed": spec.seed,
+        "preset": spec.preset,
+        **dict(spec.params),
+    }
 
 
 def run_trial(
@@ -199,21 +247,21 @@ def run_trial(
     *,
     limits: WatchdogLimits | None = None,
     retry_unstable: bool = False,
-    state_dir: Path | None = None,
-    record_dir: Path | None = None,
+    folder: Path | None = None,
+    watch: Watch = Watch(),
     observers: Sequence[Observer] = (),
 ) -> dict[str, Any]:
     """Run one trial and return its results row (identity, outcome, metrics, snapshots, config, versions).
 
     With `retry_unstable`, an unstable trial is rerun once with half the timestep (without observers) and
-    the row says so. With `state_dir`, the snapshots are saved there as .npz; with `record_dir`, the whole
-    trial is recorded there as `<trial_id>.mcap` (`observers.McapObserver`).
+    the row says so. With `folder`, the snapshots and series are saved under `folder/states/` and the
+    files `watch` asks for under `folder/recordings/` and `folder/videos/`.
     """
     start = time.perf_counter()
+    state_dir = None if folder is None else Path(folder) / STATES
     watchers = list(observers)
-    if record_dir is not None:
-        metadata = {"task": spec.task, "seed": str(spec.seed), "condition": spec.condition}
-        watchers.append(McapObserver(Path(record_dir) / f"{spec.trial_id}.mcap", metadata))
+    if folder is not None:
+        watchers += watch.observers(spec, Path(folder))
     row = simulate(spec.task, spec.config, spec.seed, limits=limits, observers=watchers, state_dir=state_dir).row
     retried = False
     if row["outcome"] == "unstable" and retry_unstable:
@@ -224,13 +272,8 @@ def run_trial(
         row["first_unstable_reason"] = first_reason
         retried = True
     return {
-        "trial_id": spec.trial_id,
-        "task": spec.task,
-        "condition": spec.condition,
-        "seed": spec.seed,
-        "preset": spec.preset,
+        **_identity(spec),
         "success": row["outcome"] == "success",
-        **dict(spec.params),
         **row,
         "retried_half_timestep": retried,
         "wall_time_s": time.perf_counter() - start,
@@ -239,57 +282,75 @@ def run_trial(
     }
 
 
-class Executor(Protocol):
-    """Runs a function over items, yielding results as they finish (any order)."""
-
-    def map_unordered(self, fn: Callable[[Any], Any], items: list[Any]) -> Iterator[Any]:
-        """Yield fn(item) for every item."""
-        ...
-
-
-class SerialExecutor:
-    """Runs everything in this process (debugging, tests)."""
-
-    def map_unordered(self, fn: Callable[[Any], Any], items: list[Any]) -> Iterator[Any]:
-        """Yield fn(item) in order."""
-        for item in items:
-            yield fn(item)
+def failed_row(spec: TrialSpec, reason: str) -> dict[str, Any]:
+    """The row of a trial that could not be run (outcome `failed`, never scored), with the reason."""
+    return {
+        **_identity(spec),
+        "success": False,
+        "outcome": FAILED,
+        "failure_mode": "",
+        "unstable_reason": "",
+        "failed_reason": reason,
+        **versions(),
+        **{f"config.{k}": v for k, v in to_flat_dict(spec.config).items()},
+    }
 
 
-class ProcessExecutor:
-    """Local worker processes (one MuJoCo simulation per core)."""
+@dataclass(frozen=True, eq=False)
+class TrialOutput:
+    """What a worker hands back for one trial: its row and the files it wrote, for the driver to store."""
 
-    def __init__(self, workers: int):
-        self.workers = workers
+    row: dict[str, Any]
+    files: dict[str, bytes] = field(default_factory=dict)
+    """Path relative to the output folder ('states/<id>_held.npz', ...) -> content."""
 
-    def map_unordered(self, fn: Callable[[Any], Any], items: list[Any]) -> Iterator[Any]:
-        """Yield results as workers finish them."""
-        context = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(self.workers, mp_context=context) as pool:
-            futures = [pool.submit(fn, item) for item in items]
+
+@dataclass(frozen=True)
+class TrialWorker:
+    """The function executors run on a TrialSpec, in any process or on any machine: picklable.
+
+    It runs the trial in a private scratch folder and returns the row with every file the trial wrote
+    (`TrialOutput`), so only the driver writes into the output folder, which need not be shared with the
+    workers. An exception raised by the trial (a bug, not a physical instability) becomes a `failed` row
+    with the exception as its reason; it is not retried, since it would recur.
+    """
+
+    retry_unstable: bool = False
+    watch: Watch = Watch()
+    observers: Callable[[TrialSpec], Sequence[Observer]] | None = None
+    """Extra observers made per trial (test probes); must be picklable."""
+
+    def __call__(self, spec: TrialSpec) -> TrialOutput:
+        extra = list(self.observers(spec)) if self.observers is not None else []
+        with tempfile.TemporaryDirectory(prefix="entangle-bench-trial-") as scratch:
+            folder = Path(scratch)
             try:
-                for future in concurrent.futures.as_completed(futures):
-                    yield future.result()
-            except BaseException:
-                for future in futures:
-                    future.cancel()
-                raise
-
-
-def make_executor(workers: int) -> Executor:
-    """Serial for one worker, local processes otherwise."""
-    return SerialExecutor() if workers <= 1 else ProcessExecutor(workers)
+                row = run_trial(spec, retry_unstable=self.retry_unstable, folder=folder, watch=self.watch,
+                                observers=extra)
+            except Exception as exc:  # any bug in any task: record it and go on with the sweep
+                return TrialOutput(failed_row(spec, f"error: {type(exc).__name__}: {exc}"))
+            files = {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
+                     if p.is_file()}
+        return TrialOutput(row, files)
 
 
 def run_trials(
     specs: Iterable[TrialSpec],
     log: TrialLog,
     executor: Executor,
+    *,
     retry_unstable: bool = False,
     progress: bool = True,
-    record: bool = False,
+    watch: Watch = Watch(),
+    observers: Callable[[TrialSpec], Sequence[Observer]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run every spec whose trial id is not yet in `log`, appending rows as they finish; return new rows."""
+    """Run every spec whose trial id is not yet in `log` (or only as failed); return the new rows.
+
+    The driver alone writes: for each trial, as it finishes, its files into the log's folder (atomically),
+    then its row into the log, so a logged row always has its files. A trial whose worker died on every
+    attempt the executor allows is logged as `failed` with the reason (`failed_row`) and run again by the
+    next rerun. `observers` makes extra observers per trial (see `TrialWorker`).
+    """
     specs = list(specs)
     done = log.done_ids()
     todo = [s for s in specs if s.trial_id not in done]
@@ -301,28 +362,19 @@ def run_trials(
         disable=not progress,
         file=sys.stderr,
     )
-    rows, successes = [], 0
+    rows: list[dict[str, Any]] = []
     folder = log.path.parent
-    runner = _Runner(retry_unstable, folder / "states", folder / "recordings" if record else None)
-    for row in executor.map_unordered(runner, todo):
-        log.append(row)
-        rows.append(row)
-        successes += bool(row["success"])
+    worker = TrialWorker(retry_unstable, watch, observers)
+    for spec, result in executor.map_unordered(worker, todo):
+        if isinstance(result, WorkerLost):
+            result = TrialOutput(failed_row(spec, result.reason))
+        for name, content in result.files.items():
+            with AtomicFile(folder / name) as out:
+                out.tmp.write_bytes(content)
+        log.append(result.row)
+        rows.append(result.row)
         bar.update(1)
-        bar.set_postfix(successes=successes, unstable=sum(r["outcome"] == "unstable" for r in rows))
+        outcomes = collections.Counter(r["outcome"] for r in rows)
+        bar.set_postfix(successes=outcomes["success"], unstable=outcomes["unstable"], failed=outcomes[FAILED])
     bar.close()
     return rows
-
-
-@dataclass(frozen=True)
-class _Runner:
-    """Picklable callable for worker processes."""
-
-    retry_unstable: bool
-    state_dir: Path
-    record_dir: Path | None
-
-    def __call__(self, spec: TrialSpec) -> dict[str, Any]:
-        return run_trial(
-            spec, retry_unstable=self.retry_unstable, state_dir=self.state_dir, record_dir=self.record_dir
-        )

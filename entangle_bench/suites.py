@@ -29,14 +29,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from entangle_bench.config import replace_path
+from entangle_bench import resources
+from entangle_bench.config import apply_overrides, replace_path
 from entangle_bench.errors import EntangleBenchError, FileFormatError, ParameterError, UnknownNameError
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
 from entangle_bench.registry import Registry
 from entangle_bench.runner import TrialSpec
 from entangle_bench.suite import TASKS, resolve_config
 
-SUITE_DIR = Path(__file__).resolve().parent.parent / "tasks"
+SUITE_DIR = resources.tasks_dir()
 TOP_KEYS = {"description", "trials", "preset", "seed", "conditions", "sweep"}
 CONDITION_KEYS = {"task", "label", "set"}
 
@@ -104,8 +105,21 @@ def _expand(
     return specs
 
 
-def load_suite(name: str, trials: int | None = None) -> Suite:
-    """Read a suite file (registered name or path) into its trial specs; `trials` overrides the file's count."""
+def load_suite(
+    name: str,
+    trials: int | None = None,
+    *,
+    preset: str | None = None,
+    overrides: Sequence[str] = (),
+    offsets: Sequence[float] | None = None,
+    seed: int | None = None,
+) -> Suite:
+    """Read a suite file (registered name or path) into its trial specs, with command-line settings on top.
+
+    `trials`, `preset` and `seed` replace the file's values; `overrides` (`a.b=value`) apply to every condition
+    after its own `set`; `offsets` (m) replace the `offset_m` sweep axis (or add one). An override of a swept
+    parameter is refused: the sweep would replace it.
+    """
     path = suite_path(name)
     try:
         data = tomllib.loads(path.read_text())
@@ -117,10 +131,13 @@ def load_suite(name: str, trials: int | None = None) -> Suite:
     count = data.get("trials", 1) if trials is None else trials
     if not isinstance(count, int) or count < 1:
         raise _fail(path, "trials", f"must be a positive integer, got {count!r}")
-    preset = data.get("preset", DEFAULT_PRESET)
-    if preset not in PRESETS:
-        raise _fail(path, "preset", f"unknown preset {preset!r}; known: {PRESETS.names()}")
-    seed0 = data.get("seed", 0)
+    if preset is None:
+        preset = data.get("preset", DEFAULT_PRESET)
+        if preset not in PRESETS:
+            raise _fail(path, "preset", f"unknown preset {preset!r}; known: {PRESETS.names()}")
+    elif preset not in PRESETS:
+        raise UnknownNameError("preset", preset, PRESETS.names())
+    seed0 = data.get("seed", 0) if seed is None else seed
     if not isinstance(seed0, int) or seed0 < 0:
         raise _fail(path, "seed", f"must be a non-negative integer, got {seed0!r}")
     conditions = data.get("conditions")
@@ -129,6 +146,14 @@ def load_suite(name: str, trials: int | None = None) -> Suite:
     sweep = data.get("sweep", {})
     if not isinstance(sweep, dict) or any(not isinstance(v, list) or not v for v in sweep.values()):
         raise _fail(path, "sweep", "must be a table of non-empty lists")
+    if offsets is not None:
+        sweep = {**sweep, "offset_m": [float(x) for x in offsets]}
+    for item in overrides:
+        key = item.partition("=")[0].strip()
+        if key in sweep:
+            raise ParameterError(f"--set {key}: suite {path.stem!r} sweeps {key} over {sweep[key]}, which would "
+                                 "replace the value" + ("; use --offsets to change the offsets" if key == "offset_m"
+                                                        else ""))
     specs = []
     for n, cond in enumerate(conditions):
         where = f"conditions[{n}]"
@@ -150,6 +175,10 @@ def load_suite(name: str, trials: int | None = None) -> Suite:
                 base = replace_path(base, key, _value(value))
             except (EntangleBenchError, TypeError) as exc:
                 raise _fail(path, f"{where}.set.{key}", str(exc)) from None
+        try:
+            base = apply_overrides(base, overrides)
+        except (EntangleBenchError, TypeError) as exc:
+            raise ParameterError(f"--set on suite {path.stem}, condition {where} (task {task}): {exc}") from None
         label = cond.get("label", task.split("/")[-1])
         specs += _expand(task, label, base, sweep, count, seed0, preset, lambda k, p: _fail(path, k, p))
     return Suite(path.stem, data.get("description", ""), preset, tuple(sweep), tuple(specs))

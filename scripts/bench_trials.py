@@ -15,8 +15,9 @@ from pathlib import Path
 
 import mujoco
 
+from entangle_bench.executors import make_executor
 from entangle_bench.results import TrialLog
-from entangle_bench.runner import TrialSpec, make_executor, run_trials
+from entangle_bench.runner import TrialSpec, run_trials
 from entangle_bench.suite import resolve_config
 
 

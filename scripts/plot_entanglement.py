@@ -2,9 +2,10 @@
 
 Three 3D panels in the style of Becker et al. (PNAS 2022) Fig. 2D-F: filaments colored by local
 ACN, by local filament count (spheres of --diameter, default 20 mm, at every vertex), and contact
-points colored by kind (filament-object red, filament-filament blue). Reads an .npz with `curves`
-(K, M, 3) in m (or one (M, 3) array per key) and optionally `contact_points` (n, 3) and
-`contact_kinds` (n,); never simulates.
+points colored by kind (filament-object red, filament-filament blue), each with the object drawn in.
+Reads an .npz with `curves` (K, M, 3) in m (or one (M, 3) array per key) and optionally
+`contact_points` (n, 3), `contact_kinds` (n,) and the object's parts (`entangle_bench.viz.pack`, as
+the runner saves them in states/*.npz); never simulates.
 
 Usage:
     python scripts/plot_entanglement.py FILE.npz --out fig.png
@@ -14,9 +15,7 @@ Usage:
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -27,23 +26,18 @@ import numpy as np
 from matplotlib.lines import Line2D
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
+from entangle_bench.atomic import atomic_savefig
 from entangle_bench.errors import EntangleBenchError
 from entangle_bench.metrics.curve_file import load_contacts, load_curves
 from entangle_bench.metrics.local_fields import local_fields
 from entangle_bench.metrics.synthetic import helix_tangle
+from entangle_bench.viz import KIND_COLORS, Part, draw_scene, set_equal_axes, unpack
 
-KIND_COLORS = {
-    "filament-object": "tab:red",
-    "filament-filament": "tab:blue",
-    "filament-self": "tab:purple",
-    "filament-ground": "tab:green",
-    "object-ground": "tab:gray",
-    "other": "black",
-}
 DEMO_OBJECT_RADIUS_M = 0.015
+DEMO_OBJECT_HEIGHT_M = 0.12
 
 
-def demo_data() -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+def demo_data() -> tuple[list[np.ndarray], np.ndarray, np.ndarray, list[Part]]:
     """Intertwined helices around a cylinder of radius 15 mm, with geometric stand-in contacts.
 
     Contacts are not simulated: filament-filament points are midpoints of vertex pairs of
@@ -62,20 +56,15 @@ def demo_data() -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     fo[:, :2] *= (DEMO_OBJECT_RADIUS_M / rho[near])[:, None]
     points = np.vstack([ff, fo])
     kinds = np.array(["filament-filament"] * len(ff) + ["filament-object"] * len(fo))
-    return list(curves), points, kinds
+    half = DEMO_OBJECT_HEIGHT_M / 2
+    cylinder = Part("cylinder", np.array([DEMO_OBJECT_RADIUS_M, half, 0.0]), np.array([0.0, 0.0, half]),
+                    np.eye(3), np.zeros((0, 3)), np.zeros((0, 3), np.int32))
+    return list(curves), points, kinds, [cylinder]
 
 
-def _set_equal_axes(ax, points_mm: np.ndarray) -> None:
-    """Equal scale on x, y, z around the data, labelled in mm."""
-    lo, hi = points_mm.min(axis=0), points_mm.max(axis=0)
-    center, half = 0.5 * (lo + hi), 0.5 * max(float((hi - lo).max()), 1e-9)
-    ax.set_xlim(center[0] - half, center[0] + half)
-    ax.set_ylim(center[1] - half, center[1] + half)
-    ax.set_zlim(center[2] - half, center[2] + half)
-    ax.set_box_aspect((1, 1, 1))
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    ax.set_zlabel("z (mm)")
+def _frame(ax, points_mm: np.ndarray) -> None:
+    """Equal axes around the drawn points (mm), one view for every panel."""
+    set_equal_axes(ax, points_mm)
     ax.view_init(elev=18, azim=-60)
 
 
@@ -94,11 +83,12 @@ def _colored_curves(ax, curves_mm, values, cmap, norm, width=2.0) -> None:
 def plot(
     curves: list[np.ndarray],
     contacts: tuple[np.ndarray, np.ndarray] | None,
+    parts: list[Part],
     diameter_m: float,
     out: Path,
     title: str,
 ) -> None:
-    """Draw the three panels and save the PNG atomically."""
+    """Draw the three panels, each with the object's parts, and save the PNG atomically."""
     fields = local_fields(curves, diameter_m=diameter_m)
     curves_mm = [1e3 * c for c in curves]
     all_mm = np.concatenate(curves_mm)
@@ -106,6 +96,7 @@ def plot(
     fig.suptitle(title)
 
     ax = fig.add_subplot(1, 3, 1, projection="3d")
+    all_mm = np.vstack([all_mm, draw_scene(ax, parts=parts, ground=False, object_alpha=0.35)])
     norm = plt.Normalize(0.0, max(fields.max_acn, 1e-9))
     _colored_curves(ax, curves_mm, fields.local_acn, "plasma", norm)
     fig.colorbar(
@@ -119,9 +110,10 @@ def plot(
         f"local ACN ({diameter_m * 1e3:.0f} mm spheres)\n"
         f"mean {fields.mean_acn:.2f}, max {fields.max_acn:.2f}"
     )
-    _set_equal_axes(ax, all_mm)
+    _frame(ax, all_mm)
 
     ax = fig.add_subplot(1, 3, 2, projection="3d")
+    draw_scene(ax, parts=parts, ground=False, object_alpha=0.35)
     top = max(fields.max_count, 2)
     cmap = plt.get_cmap("viridis", top)
     norm = matplotlib.colors.BoundaryNorm(np.arange(0.5, top + 1.0), top)
@@ -135,41 +127,27 @@ def plot(
         label="filaments in sphere",
     )
     ax.set_title(f"local filament density\nmean {fields.mean_count:.2f}, max {fields.max_count}")
-    _set_equal_axes(ax, all_mm)
+    _frame(ax, all_mm)
 
     ax = fig.add_subplot(1, 3, 3, projection="3d")
-    for curve in curves_mm:
-        ax.plot(*curve.T, color="0.75", linewidth=1.0)
-    handles = []
-    if contacts is None or len(contacts[0]) == 0:
-        ax.set_title("contacts\n(no contact data in file)")
-    else:
-        points_mm, kinds = 1e3 * contacts[0], contacts[1]
-        for kind, color in KIND_COLORS.items():
-            sel = kinds == kind
-            if sel.any():
-                ax.scatter(*points_mm[sel].T, color=color, s=10, depthshade=False)
-                handles.append(
-                    Line2D(
-                        [], [], marker="o", linestyle="", color=color, label=f"{kind} ({sel.sum()})"
-                    )
-                )
+    has_contacts = contacts is not None and len(contacts[0]) > 0
+    all_mm = np.vstack([all_mm, draw_scene(ax, curves, parts, contacts if has_contacts else None, ground=False,
+                                           curve_color="0.75", object_alpha=0.35)])
+    if has_contacts:
+        kinds = contacts[1]
+        handles = [Line2D([], [], marker="o", linestyle="", color=color, label=f"{kind} ({(kinds == kind).sum()})")
+                   for kind, color in KIND_COLORS.items() if (kinds == kind).any()]
         ax.set_title("contacts by kind")
         ax.legend(handles=handles, loc="upper left", fontsize=8)
-        all_mm = np.vstack([all_mm, points_mm])
-    _set_equal_axes(ax, all_mm)
+    else:
+        ax.set_title("contacts\n(no contact data in file)")
+    _frame(ax, all_mm)
 
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}-", suffix=".png")
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, out)
+        atomic_savefig(fig, out, dpi=110)
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.remove(tmp)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -186,14 +164,16 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("give either FILE or --demo")
     try:
         if args.demo:
-            curves, points, kinds = demo_data()
+            curves, points, kinds, parts = demo_data()
             contacts = (points, kinds)
             title = "demo: 12 intertwined helices (contacts: geometric stand-ins, not simulated)"
         else:
             curves = load_curves(args.file).curves
             contacts = load_contacts(args.file)
+            with np.load(args.file, allow_pickle=False) as arrays:
+                parts = unpack(arrays)
             title = str(args.file)
-        plot(curves, contacts, args.diameter, Path(args.out), title)
+        plot(curves, contacts, parts, args.diameter, Path(args.out), title)
     except EntangleBenchError as exc:
         print(f"plot_entanglement: error: {exc}", file=sys.stderr)
         return 2

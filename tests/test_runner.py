@@ -9,10 +9,11 @@ from scipy import stats
 
 from entangle_bench.cli import main
 from entangle_bench.errors import FileFormatError, UnknownNameError
+from entangle_bench.executors import SerialExecutor
 from entangle_bench.metrics.stats import success_table, wilson_interval
 from entangle_bench.recording import read_recording
 from entangle_bench.results import TrialLog
-from entangle_bench.runner import SerialExecutor, run_trial, run_trials, simulate
+from entangle_bench.runner import Watch, run_trial, run_trials, simulate
 from entangle_bench.suite import SHORT_SEQUENCE
 from entangle_bench.suites import SUITES, load_suite, task_suite
 
@@ -114,7 +115,7 @@ class KilledAfter:
 
     def map_unordered(self, fn, items):
         for item in items[: self.n]:
-            yield fn(item)
+            yield item, fn(item)
         raise KeyboardInterrupt
 
 
@@ -158,8 +159,8 @@ def test_rerun_skips_finished_trials(tmp_path, short_spec):
 
 def test_recording_round_trip(tmp_path, short_spec):
     spec = short_spec("sphere")
-    row = run_trial(spec, record_dir=tmp_path)
-    states = list(read_recording(tmp_path / f"{row['trial_id']}.mcap"))
+    row = run_trial(spec, folder=tmp_path, watch=Watch(record=True))
+    states = list(read_recording(tmp_path / "recordings" / f"{row['trial_id']}.mcap"))
     times = [s["time_s"] for s in states]
     assert times == sorted(times) and times[-1] == pytest.approx(row["sim_time_s"], abs=0.06)
     assert states[0]["centerlines_m"].shape[0] == spec.config.gripper.n_filaments

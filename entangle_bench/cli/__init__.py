@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 
+from entangle_bench.cli.interrupt import Interrupted, terminate_as_exception
 from entangle_bench.errors import EntangleBenchError
 
 # Subcommand name -> module under entangle_bench.cli exposing `add_parser(subparsers)` and `run(args)`.
@@ -37,18 +39,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; return the process exit code (0 ok, 2 bad input)."""
+    """Run the CLI; return the process exit code (0 ok, 1 some trials failed, 2 bad input, 130/143 SIGINT/SIGTERM)."""
     args = build_parser().parse_args(argv)
     try:
-        return int(args.run(args) or 0)
+        with terminate_as_exception():
+            return int(args.run(args) or 0)
     except EntangleBenchError as exc:
         print(f"entangle-bench: error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into `head` and closed early
         return 0
     except KeyboardInterrupt:
-        print("entangle-bench: interrupted", file=sys.stderr)
-        return 130
+        print("entangle-bench: interrupted (SIGINT)", file=sys.stderr)
+        return 128 + signal.SIGINT
+    except Interrupted as exc:
+        print(f"entangle-bench: interrupted ({signal.Signals(exc.signum).name})", file=sys.stderr)
+        return 128 + exc.signum
 
 
 if __name__ == "__main__":

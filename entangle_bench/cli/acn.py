@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from entangle_bench.config import check_range
 from entangle_bench.metrics.acn import acn_matrix
 from entangle_bench.metrics.curve_file import load_curves
 from entangle_bench.metrics.local_fields import local_fields
@@ -40,6 +41,8 @@ def format_matrix(matrix: np.ndarray) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Read the curves, print total ACN, the matrix and optionally the local-field summary."""
+    if args.local_diameter is not None:
+        check_range("--local-diameter (m)", args.local_diameter, 0.0, None, low_open=True)
     data = load_curves(args.file)
     matrix = acn_matrix(data.curves)
     k = len(data.curves)

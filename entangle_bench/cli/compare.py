@@ -13,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
+from entangle_bench import resources
 from entangle_bench.errors import ParameterError
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
 from entangle_bench.results import atomic_write_csv
@@ -20,7 +21,7 @@ from entangle_bench.rods.case import load_case
 from entangle_bench.rods.comparison import compare_case
 from entangle_bench.rods.representations import DEFAULT_REPRESENTATION, REPRESENTATIONS
 
-DEFAULT_CASES = Path("tasks") / "rod_cases"
+DEFAULT_CASES = resources.rod_cases_dir()
 
 #: Columns printed (the CSV holds all of them).
 SHOWN = {

@@ -27,13 +27,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     show.add_argument("--out", default=None,
                       help="PNG path for the picture (default results/scratch/objects/NAME.png)")
     dec = actions.add_parser("decompose", help="convex decomposition (CoACD) of a mesh object "
-                                                "or mesh file, cached under assets/coacd_cache")
+                                                "or mesh file, cached (see entangle_bench.resources)")
     dec.add_argument("target", help="object name or mesh file path")
     dec.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                      help="override a parameter, e.g. coacd.threshold=0.04 (repeatable)")
     dec.add_argument("--scale", type=float, default=None,
                      help="scale factor applied to a mesh file (e.g. 0.001 for millimetres)")
-    dec.add_argument("--cache-dir", default=None, help="cache folder (default assets/coacd_cache)")
+    dec.add_argument("--cache-dir", default=None,
+                     help="cache folder (default: committed caches, then ~/.cache/entangle-bench/coacd)")
     dec.add_argument("--force", action="store_true", help="recompute even if cached")
 
 
@@ -96,8 +97,7 @@ def _decompose(args: argparse.Namespace) -> int:
     mesh, notes = meshes.load_mesh(params.path, params.scale)
     for note in notes:
         print(f"repair: {note}")
-    result = meshes.decompose(mesh, params.coacd, params.cache_path, label=params.path.stem,
-                              progress=True, force=args.force)
+    result = meshes.decompose_object(params, mesh, progress=True, force=args.force)
     parts = [ConvexMesh(f"part{i:02d}", v) for i, (v, _) in enumerate(result.parts)]
     union = union_moments(parts, solid=True, samples_per_part=5000).volume
     source = "cache hit" if result.from_cache else "computed"

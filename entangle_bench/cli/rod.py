@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from entangle_bench.presets import DEFAULT_PRESET, PRESETS
-from entangle_bench.rods.case import load_case
+from entangle_bench.rods.case import case_path, load_case
 from entangle_bench.rods.elastica_engine import solve_elastica
 from entangle_bench.rods.representations import DEFAULT_REPRESENTATION, REPRESENTATIONS, solve_representation
 
@@ -22,7 +22,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Bring the clamped rod of CASE.json to static equilibrium and write its centerline "
         "(M, 3) at uniform arclength from base to tip, the wall time and the settings to OUT.npz.",
     )
-    parser.add_argument("case", type=Path, help="rod case file (JSON, SI units; see tasks/rod_cases/)")
+    parser.add_argument("case", help="packaged rod case by name (soft_cantilever, ...; see `entangle-bench tasks`) "
+                                     "or a rod-case file (JSON, SI units), relative to the current folder")
     parser.add_argument("--out", type=Path, required=True, help="result file (.npz)")
     parser.add_argument("--engine", choices=("mujoco", "pyelastica"), default="mujoco")
     parser.add_argument(
@@ -43,7 +44,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Solve the case, write the result and print a one-line summary."""
-    case = load_case(args.case)
+    case = load_case(case_path(args.case))
     if args.engine == "pyelastica":
         result = solve_elastica(case, args.segments or DEFAULT_ELEMENTS, n_output=args.points)
     else:

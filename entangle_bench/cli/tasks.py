@@ -1,4 +1,4 @@
-"""`entangle-bench tasks`: registered tasks, suite files and presets."""
+"""`entangle-bench tasks`: registered tasks, suite files, rod cases and presets."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import argparse
 
 from entangle_bench import suites
 from entangle_bench.presets import PRESETS
+from entangle_bench.rods.case import ROD_CASES
 from entangle_bench.suite import TASKS
 
 
@@ -25,6 +26,8 @@ def run(args: argparse.Namespace) -> int:
     for name in suites.SUITES.names():
         suite = suites.load_suite(name)
         print(f"  {name:24s} {len(suite.specs):5d} trials  {suite.description}")
+    print("rod cases (entangle-bench rod NAME):")
+    print("  " + ", ".join(ROD_CASES.names()))
     print("presets:")
     for name, preset in PRESETS.items():
         n = preset.numerics

@@ -29,8 +29,22 @@ class CurveFile:
     curves: list[np.ndarray]  # (M_k, 3) float64 each, m
 
 
+#: First bytes of a zip archive (what an .npz is) and of a bare .npy array.
+_ZIP_MAGIC, _NPY_MAGIC = (b"PK\x03\x04", b"PK\x05\x06"), b"\x93NUMPY"
+
+
 def open_npz(path: Path) -> np.lib.npyio.NpzFile:
-    """Open an .npz archive; FileFormatError if it is unreadable or a bare .npy array."""
+    """Open an .npz archive; FileFormatError if it is no archive (text, a bare .npy array) or unreadable."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(6)
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot read ({exc.strerror})") from None
+    if head.startswith(_NPY_MAGIC):
+        raise FileFormatError(f"{path}: a single .npy array, not an .npz archive")
+    if not head.startswith(_ZIP_MAGIC):
+        raise FileFormatError(f"{path}: not an npz archive (an .npz is a zip file of .npy arrays, e.g. written "
+                              "by numpy.savez); this file starts with " + repr(head))
     try:
         archive = np.load(path, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile) as exc:

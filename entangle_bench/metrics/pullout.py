@@ -197,17 +197,19 @@ def pullout_table(rows: pd.DataFrame, by: Sequence[str], seed: int = 0) -> pd.Da
     """Per condition: trial counts by result, median, IQR and bootstrap 95 % CI of peak force and toughness.
 
     Needs columns `outcome`, `pull_result`, `peak_force_n`, `toughness_j`, `config.object_name` and
-    `config.gripper.pressure_pa`. Scored trials are stable ones with a result in PULL_RESULTS; unstable trials
-    are counted and never scored. Held trials enter with their toughness as a lower bound (`held` counts them).
+    `config.gripper.pressure_pa`. Scored trials are stable ones with a result in PULL_RESULTS; unstable and
+    failed trials (not run: `runner.failed_row`) are counted and never scored. Held trials enter with their
+    toughness as a lower bound (`held` counts them).
     The reference columns hold the reference's measured values for the condition's object at 172 kPa.
     """
     out = []
     for key, group in rows.groupby(list(by), sort=True, dropna=False):
         key = key if isinstance(key, tuple) else (key,)
-        scored = group[(group["outcome"] != "unstable") & group["pull_result"].isin(PULL_RESULTS)]
+        scored = group[~group["outcome"].isin(["unstable", "failed"]) & group["pull_result"].isin(PULL_RESULTS)]
         entry = dict(zip(by, key)) | {
             "trials": len(group),
             "unstable": int((group["outcome"] == "unstable").sum()),
+            "failed": int((group["outcome"] == "failed").sum()),
             "scored": len(scored),
         }
         entry |= {result: int((scored["pull_result"] == result).sum()) for result in PULL_RESULTS}

@@ -2,33 +2,33 @@
 
 from __future__ import annotations
 
-import math
-
 import pandas as pd
+from scipy.stats import binomtest
+
+from entangle_bench.errors import ParameterError
 
 
-def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (Wilson 1927); (0, 1) for zero trials."""
+def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (Wilson 1927; scipy); (0, 1) for zero trials."""
     if trials == 0:
         return 0.0, 1.0
     if not 0 <= successes <= trials:
-        raise ValueError(f"successes = {successes} must be between 0 and trials = {trials}")
-    p = successes / trials
-    denom = 1 + z**2 / trials
-    center = (p + z**2 / (2 * trials)) / denom
-    half = z * math.sqrt(p * (1 - p) / trials + z**2 / (4 * trials**2)) / denom
-    return max(0.0, center - half), min(1.0, center + half)
+        raise ParameterError(f"successes = {successes} must be between 0 and trials = {trials}")
+    ci = binomtest(successes, trials).proportion_ci(confidence_level=confidence, method="wilson")
+    return float(ci.low), float(ci.high)
 
 
 def success_table(rows: pd.DataFrame, by: list[str]) -> pd.DataFrame:
-    """Per condition: trials, stable trials, successes, rate over stable trials and its Wilson 95 % CI.
+    """Per condition: trials, successes, rate over scored trials and its Wilson 95 % CI, failure modes.
 
-    Unstable trials are counted separately and never enter the rate.
+    Only trials the task decided (outcome success or failure) are scored. Unstable trials (stopped by the
+    watchdog) and failed ones (not run: worker died, or the trial raised) are counted in their own columns and
+    never enter the rate.
     """
     out = []
     for key, group in rows.groupby(by, sort=True, dropna=False):
         key = key if isinstance(key, tuple) else (key,)
-        stable = group[group["outcome"] != "unstable"]
+        stable = group[group["outcome"].isin(["success", "failure"])]
         n, k = len(stable), int((stable["outcome"] == "success").sum())
         low, high = wilson_interval(k, n)
         modes = stable.loc[stable["outcome"] != "success", "failure_mode"].value_counts()
@@ -37,6 +37,7 @@ def success_table(rows: pd.DataFrame, by: list[str]) -> pd.DataFrame:
             | {
                 "trials": len(group),
                 "unstable": int((group["outcome"] == "unstable").sum()),
+                "failed": int((group["outcome"] == "failed").sum()),
                 "successes": k,
                 "success_rate": k / n if n else float("nan"),
                 "ci95_low": low,

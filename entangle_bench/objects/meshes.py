@@ -1,6 +1,13 @@
 """Mesh objects: load, repair and check a mesh (metres), decompose it into convex parts with CoACD
 (Wei et al., "Approximate convex decomposition for 3D meshes with collision-aware concavity and tree
-search", SIGGRAPH 2022) and cache the parts under assets/ keyed by a hash of mesh and settings.
+search", SIGGRAPH 2022) and cache the parts keyed by the mesh file and the settings.
+
+The cache key is the SHA-256 of a format tag, the mesh file's bytes (line endings normalized), the scale
+and the CoACD settings: nothing a library computes, so it is the same on every machine and install. (The
+first key hashed the loaded and repaired mesh; trimesh's `split` returns faces in an order that follows
+numpy's unstable sort, which differs between numpy versions and CPUs, so a fresh install could miss the
+committed cache and spend half a minute in CoACD.) Bump `_CACHE_FORMAT` when loading or repair changes
+what CoACD is given. Lookup and write folders: `entangle_bench.resources`.
 """
 
 from __future__ import annotations
@@ -12,7 +19,6 @@ import json
 import math
 import os
 import sys
-import tempfile
 import threading
 import time
 import typing
@@ -25,15 +31,16 @@ import trimesh
 from scipy.spatial import ConvexHull, QhullError
 from tqdm import tqdm
 
+from entangle_bench import resources
+from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import MeshError, ParameterError
 from entangle_bench.objects.geometry import ConvexMesh, Shape, mesh_moments
 
-ASSETS_DIR = Path(__file__).resolve().parents[2] / "assets"
-CACHE_DIR = ASSETS_DIR / "coacd_cache"
+ASSETS_DIR = resources.assets_dir()
 MIN_EXTENT_M = 0.005  # smallest plausible graspable object (largest side, m)
 MAX_EXTENT_M = 1.0  # largest plausible graspable object (largest side, m)
-_CACHE_FORMAT = "entangle-bench coacd cache v1"
+_CACHE_FORMAT = "entangle-bench coacd cache v2"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,7 +88,8 @@ class MeshObjectParams:
 
     Mass: `mass_kg` if given, else `density_kg_m3` x mesh volume. `rest_pose` "stable" turns the
     mesh onto the hull face that puts its centre of mass lowest (with the centre of mass over the
-    face); "as_is" keeps the file's orientation. `cache_dir` None means assets/coacd_cache.
+    face); "as_is" keeps the file's orientation. `cache_dir` None means the committed caches, then the
+    user cache (`entangle_bench.resources`).
     """
 
     mesh_file: str
@@ -110,9 +118,9 @@ class MeshObjectParams:
         return p if p.is_absolute() else ASSETS_DIR / p
 
     @property
-    def cache_path(self) -> Path:
-        """Folder of the decomposition cache."""
-        return CACHE_DIR if self.cache_dir is None else Path(self.cache_dir)
+    def cache_path(self) -> Path | None:
+        """Folder of the decomposition cache; None for the default folders."""
+        return None if self.cache_dir is None else Path(self.cache_dir)
 
 
 def check_scale(mesh: trimesh.Trimesh, source: str) -> None:
@@ -204,11 +212,23 @@ class Decomposition:
     seconds: float
 
 
-def cache_key(mesh: trimesh.Trimesh, settings: CoacdSettings) -> str:
-    """SHA-256 of the mesh (vertices rounded to 1 nm, faces) and the CoACD settings."""
-    h = hashlib.sha256(_CACHE_FORMAT.encode())
-    h.update(np.ascontiguousarray(np.round(mesh.vertices, 9), "<f8").tobytes())
+def file_digest(path: str | os.PathLike, scale: float = 1.0) -> str:
+    """SHA-256 of a mesh file's bytes (CRLF read as LF) and the scale: the source of a decomposition."""
+    data = Path(path).read_bytes().replace(b"\r\n", b"\n")
+    return hashlib.sha256(data + f"\nscale={float(scale)!r}".encode()).hexdigest()
+
+
+def mesh_digest(mesh: trimesh.Trimesh) -> str:
+    """SHA-256 of an in-memory mesh's arrays: a source for meshes without a file (valid on this install only)."""
+    h = hashlib.sha256(np.ascontiguousarray(mesh.vertices, "<f8").tobytes())
     h.update(np.ascontiguousarray(mesh.faces, "<i8").tobytes())
+    return h.hexdigest()
+
+
+def cache_key(source: str, settings: CoacdSettings) -> str:
+    """SHA-256 of the cache format, the source digest (`file_digest`) and the CoACD settings."""
+    h = hashlib.sha256(_CACHE_FORMAT.encode())
+    h.update(source.encode())
     h.update(json.dumps(dataclasses.asdict(settings), sort_keys=True).encode())
     return h.hexdigest()
 
@@ -231,23 +251,14 @@ def _read_cache(path: Path) -> tuple[tuple[tuple[np.ndarray, np.ndarray], ...], 
 
 def _write_cache(path: Path, parts: typing.Sequence[tuple[np.ndarray, np.ndarray]],
                  seconds: float, settings: CoacdSettings) -> None:
-    """Write parts atomically (temporary file in the same folder, then os.replace)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez_compressed(fh, vertices=np.concatenate([v for v, _ in parts]).astype("<f8"),
-                                faces=np.concatenate([f for _, f in parts]).astype("<i4"),
-                                vertex_offsets=np.cumsum([0] + [len(v) for v, _ in parts]),
-                                face_offsets=np.cumsum([0] + [len(f) for _, f in parts]),
-                                seconds=np.float64(seconds),
-                                settings=json.dumps(dataclasses.asdict(settings)),
-                                coacd_version=importlib.metadata.version("coacd"))
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600; cache files are shared assets
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write parts atomically (temporary file in the same folder, then rename)."""
+    atomic_save_npz(path, vertices=np.concatenate([v for v, _ in parts]).astype("<f8"),
+                    faces=np.concatenate([f for _, f in parts]).astype("<i4"),
+                    vertex_offsets=np.cumsum([0] + [len(v) for v, _ in parts]),
+                    face_offsets=np.cumsum([0] + [len(f) for _, f in parts]),
+                    seconds=np.float64(seconds),
+                    settings=json.dumps(dataclasses.asdict(settings)),
+                    coacd_version=importlib.metadata.version("coacd"))
 
 
 def _run_with_ticker(label: str, work: typing.Callable[[], typing.Any]) -> typing.Any:
@@ -271,18 +282,23 @@ def _run_with_ticker(label: str, work: typing.Callable[[], typing.Any]) -> typin
 
 
 def decompose(mesh: trimesh.Trimesh, settings: CoacdSettings = CoacdSettings(),
-              cache_dir: str | os.PathLike = CACHE_DIR, label: str = "mesh",
-              progress: bool = False, force: bool = False) -> Decomposition:
+              cache_dir: str | os.PathLike | None = None, label: str = "mesh",
+              progress: bool = False, force: bool = False, source: str | None = None) -> Decomposition:
     """Convex parts of `mesh` from the cache or, on a miss (or `force`), from CoACD.
 
-    The cache file is written only after CoACD finished, atomically, so an interrupted run leaves
-    nothing behind. `progress` shows the elapsed time on stderr while CoACD runs.
+    `source` is the digest the cache key is made from (`file_digest` of the mesh file; default
+    `mesh_digest(mesh)`). `cache_dir` None searches `resources.coacd_cache_dirs()` and writes to
+    `resources.coacd_write_dir()`. The cache file is written only after CoACD finished, atomically, so an
+    interrupted run leaves nothing behind. `progress` shows the elapsed time on stderr while CoACD runs.
     """
-    key = cache_key(mesh, settings)
-    path = Path(cache_dir) / f"{label}-{key[:16]}.npz"
-    cached = None if force else _read_cache(path)
-    if cached is not None:
-        return Decomposition(cached[0], key, path, True, cached[1])
+    key = cache_key(source or mesh_digest(mesh), settings)
+    name = f"{label}-{key[:16]}.npz"
+    folders = resources.coacd_cache_dirs() if cache_dir is None else (Path(cache_dir),)
+    for folder in () if force else folders:
+        cached = _read_cache(folder / name)
+        if cached is not None:
+            return Decomposition(cached[0], key, folder / name, True, cached[1])
+    path = (resources.coacd_write_dir() if cache_dir is None else Path(cache_dir)) / name
     coacd.set_log_level("error")
     coacd_mesh = coacd.Mesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
     start = time.perf_counter()
@@ -350,10 +366,17 @@ def stable_rotation(vertices: np.ndarray, center_of_mass: np.ndarray) -> np.ndar
     return _rotation_between(best[2], np.array([0.0, 0.0, -1.0]))
 
 
+def decompose_object(p: MeshObjectParams, mesh: trimesh.Trimesh, progress: bool = False,
+                     force: bool = False) -> Decomposition:
+    """Decomposition of the loaded mesh of `p`, cached under the digest of its file and scale."""
+    return decompose(mesh, p.coacd, p.cache_path, label=p.path.stem, progress=progress, force=force,
+                     source=file_digest(p.path, p.scale))
+
+
 def build_mesh_object(p: MeshObjectParams) -> Shape:
     """Shape of a mesh object: CoACD parts (cached) in its rest pose, mass from the source mesh."""
     mesh, notes = load_mesh(p.path, p.scale)
-    decomposition = decompose(mesh, p.coacd, p.cache_path, label=p.path.stem)
+    decomposition = decompose_object(p, mesh)
     moments = mesh_moments(mesh.vertices, mesh.faces)
     rot = np.eye(3)
     if p.rest_pose == "stable":

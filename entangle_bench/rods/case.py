@@ -36,7 +36,6 @@ import hashlib
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -44,8 +43,11 @@ from typing import Any, Literal
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from entangle_bench import resources
+from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.config import check_range
 from entangle_bench.errors import FileFormatError, ParameterError
+from entangle_bench.registry import Registry
 
 _REQUIRED = (
     "name",
@@ -294,6 +296,27 @@ def case_key(case: RodCase) -> str:
     return hashlib.sha1(text.encode()).hexdigest()[:12]
 
 
+#: The packaged rod cases (`tasks/rod_cases/*.json`) by name, the file stem: `entangle-bench rod soft_cantilever`.
+ROD_CASES: Registry[Path] = Registry("rod case")
+for _path in sorted(resources.rod_cases_dir().glob("*.json")):
+    ROD_CASES.add(_path.stem, _path, description="")
+
+
+def case_path(name_or_path: str | os.PathLike[str]) -> Path:
+    """The rod-case file meant: an existing file (relative to the current folder), else a packaged case by name.
+
+    A missing file given as a path (a folder part or a .json suffix) raises FileFormatError; an unknown bare
+    name raises UnknownNameError; both list the packaged cases.
+    """
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    if path.suffix == ".json" or len(path.parts) > 1:
+        raise FileFormatError(f"{path}: no such rod-case file; packaged rod cases, by name: "
+                              f"{', '.join(ROD_CASES.names())}")
+    return ROD_CASES.get(str(name_or_path))
+
+
 def load_case(path: str | os.PathLike[str]) -> RodCase:
     """Read a rod-case JSON file; FileFormatError names the file and the offending field."""
     path = Path(path)
@@ -333,23 +356,14 @@ class RodResult:
 
     def save_npz(self, path: str | os.PathLike[str]) -> None:
         """Write the result to `path` (NPZ) atomically: temp file in the same folder, then rename."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                np.savez(
-                    handle,
-                    centerline=self.centerline,
-                    engine=np.array(self.engine),
-                    wall_time_s=np.array(self.wall_time_s),
-                    settings=np.array(json.dumps(self.settings, sort_keys=True)),
-                )
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        atomic_save_npz(
+            path,
+            compressed=False,
+            centerline=self.centerline,
+            engine=np.array(self.engine),
+            wall_time_s=np.array(self.wall_time_s),
+            settings=np.array(json.dumps(self.settings, sort_keys=True)),
+        )
 
     @classmethod
     def load_npz(cls, path: str | os.PathLike[str]) -> RodResult:

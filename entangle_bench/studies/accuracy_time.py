@@ -51,9 +51,11 @@ import pandas as pd  # noqa: E402
 from dm_control.rl import control  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from entangle_bench import resources  # noqa: E402
+from entangle_bench.atomic import atomic_savefig, atomic_write_text  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.presets import PRESETS, Numerics, Preset  # noqa: E402
-from entangle_bench.results import atomic_write_csv, atomic_write_text  # noqa: E402
+from entangle_bench.results import atomic_write_csv  # noqa: E402
 from entangle_bench.rods.case import RodCase, centerline_error, load_case  # noqa: E402
 from entangle_bench.rods.comparison import (  # noqa: E402
     cached_result,
@@ -66,8 +68,7 @@ from entangle_bench.rods.representations import build_representation, solve_repr
 from entangle_bench.runner import simulate  # noqa: E402
 from entangle_bench.suite import resolve_config  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
-CASES = ROOT / "tasks" / "rod_cases"
+CASES = resources.rod_cases_dir()
 TASK = "top_drape/eight_branch_tree"
 SWING_DAMPING_TIME_S = 0.02  # the harness filament's default Kelvin-Voigt time (FilamentParams)
 TRIAL_OVERRIDES = ("phases.hold_time_s=0.5", "phases.release_time_s=0.1")
@@ -516,11 +517,8 @@ def plot_pareto(rods: pd.DataFrame, trial: pd.DataFrame, path: Path, presets: di
                ylabel="|ACN - ACN of fine run| at end of hold (mean over seeds)",
                title="Top-drape trial against the fine-resolution run")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=120)
+    atomic_savefig(fig, path, dpi=120)
     plt.close(fig)
-    tmp.replace(path)
 
 
 def preset_table(rods: pd.DataFrame, trial: pd.DataFrame) -> pd.DataFrame:

@@ -19,9 +19,10 @@ from pathlib import Path
 import pandas as pd
 
 from entangle_bench.errors import ParameterError
+from entangle_bench.executors import make_executor
 from entangle_bench.metrics.pullout import pullout_table, rate_agreement
 from entangle_bench.results import TrialLog, atomic_write_csv
-from entangle_bench.runner import TrialSpec, make_executor, run_trials
+from entangle_bench.runner import TrialSpec, run_trials
 from entangle_bench.suites import task_suite
 
 #: The rows' column of the pull speed (every row carries its resolved configuration).

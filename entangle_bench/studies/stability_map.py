@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 import sys
 import time
 from collections.abc import Sequence
@@ -40,6 +39,7 @@ from tqdm import tqdm  # noqa: E402
 
 from entangle_bench import effects as fx  # noqa: E402
 from entangle_bench import stability  # noqa: E402
+from entangle_bench.atomic import atomic_savefig  # noqa: E402
 from entangle_bench.filament import REFERENCE_COIL_RADIUS_M, FilamentParams  # noqa: E402
 from entangle_bench.gripper import GripperParams  # noqa: E402
 from entangle_bench.presets import PRESETS  # noqa: E402
@@ -189,11 +189,8 @@ def plot_coil(frame: pd.DataFrame, path: Path) -> None:
 
 def _save(fig: plt.Figure, path: Path) -> None:
     """Save a figure as PNG atomically."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
+    atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
-    os.replace(tmp, path)
 
 
 def sweep(

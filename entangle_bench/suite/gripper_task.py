@@ -30,6 +30,7 @@ from entangle_bench.metrics.local_fields import local_fields
 from entangle_bench.presets import Numerics
 from entangle_bench.scene import ContactParams, Scene, SceneConfig
 from entangle_bench.suite.base import BenchTask, Snapshot
+from entangle_bench.viz import object_geometry, pack
 from entangle_bench.watchdog import mechanical_energy
 
 MAX_HUB_SPEED_M_S = 2.0
@@ -317,10 +318,12 @@ class GripperTask(BenchTask[G]):
         return self.gripper_observation(physics)
 
     def snapshot(self, physics: Any) -> Snapshot:
-        """The entanglement of the current state (`entanglement_snapshot`)."""
-        return entanglement_snapshot(
-            physics.centerlines(), contact_summary(physics.model.ptr, physics.data.ptr, physics.scene.geoms)
-        )
+        """The entanglement of the current state (`entanglement_snapshot`), with the object's parts (`viz.pack`)
+        among the arrays so that scripts/plot_entanglement.py draws the object."""
+        model, data = physics.model.ptr, physics.data.ptr
+        snap = entanglement_snapshot(physics.centerlines(), contact_summary(model, data, physics.scene.geoms))
+        parts = pack(object_geometry(model, data, physics.scene.geoms.is_object))
+        return Snapshot(snap.metrics, {**snap.arrays, **parts})
 
 
 def entanglement_snapshot(curves: np.ndarray, contacts: ContactSummary) -> Snapshot:

@@ -46,7 +46,7 @@ def test_per_key_layout_and_local_summary(tmp_path, capsys):
     ("content", "message"),
     [
         (None, "no such file"),
-        (b"not a zip archive", "not a readable .npz"),
+        (b"not a zip archive", "not an npz archive"),
         ({"curves": np.zeros((2, 5))}, r"key 'curves': expected shape \(K, M, 3\)"),
         ({"a": np.zeros((4, 2))}, r"key 'a': expected shape \(M, 3\)"),
         ({"curves": np.full((1, 3, 3), np.nan)}, r"key 'curves\[0\]': NaN or Inf"),
@@ -68,8 +68,17 @@ def test_bad_files_give_exit_code_2(tmp_path, capsys, content, message):
     assert re.search(message, err), err
 
 
-def test_bad_local_diameter_is_reported(tmp_path, capsys):
+def test_a_text_file_named_npz_is_not_an_npz_archive(tmp_path, capsys):
+    path = tmp_path / "notes.npz"
+    path.write_text("curves: none\n")
+    assert main(["acn", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "notes.npz: not an npz archive" in err and "pickle" not in err
+
+
+def test_a_bad_local_diameter_fails_before_anything_is_printed(tmp_path, capsys):
     path = tmp_path / "pair.npz"
     np.savez(path, curves=perpendicular_pair())
     assert main(["acn", str(path), "--local-diameter", "-1"]) == 2
-    assert "diameter_m" in capsys.readouterr().err
+    captured = capsys.readouterr()
+    assert captured.out == "" and "--local-diameter (m) = -1.0 is outside the allowed range (0, inf]" in captured.err

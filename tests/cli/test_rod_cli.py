@@ -109,3 +109,29 @@ def test_compare_uses_stored_references(tmp_path, capsys):
 def test_compare_empty_folder_exits_2(tmp_path, capsys):
     assert main(["compare", "--cases", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
     assert "no rod case files" in capsys.readouterr().err
+
+
+def test_packaged_cases_are_named_like_tasks_from_any_folder(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["rod", "soft_cantilever", "--out", "soft.npz", "--preset", "fast", "--points", "11"]) == 0
+    assert RodResult.load_npz(tmp_path / "soft.npz").centerline.shape == (11, 3)
+    assert "soft_cantilever: mujoco" in capsys.readouterr().out
+
+
+def test_a_path_means_a_file_relative_to_the_current_folder(tmp_path, monkeypatch, capsys):
+    data = json.loads((CASE_DIR / "stiff_cantilever.json").read_text())
+    data["name"] = "mine"
+    (tmp_path / "soft_cantilever").write_text(json.dumps(data))  # a file wins over the packaged case's name
+    monkeypatch.chdir(tmp_path)
+    assert main(["rod", "soft_cantilever", "--out", "mine.npz", "--points", "11"]) == 0
+    assert capsys.readouterr().out.startswith("mine: mujoco")
+
+
+@pytest.mark.parametrize(("argument", "message"), [
+    ("no_such_case", "unknown rod case 'no_such_case'; known: arc_zero_gravity"),
+    ("cases/soft_cantilever.json", "no such rod-case file; packaged rod cases, by name: arc_zero_gravity"),
+])
+def test_unknown_rod_case_lists_the_packaged_ones(tmp_path, monkeypatch, capsys, argument, message):
+    monkeypatch.chdir(tmp_path)
+    assert main(["rod", argument, "--out", "x.npz"]) == 2
+    assert message in capsys.readouterr().err and not (tmp_path / "x.npz").exists()

@@ -1,6 +1,11 @@
 """Mesh pipeline: loading checks, repair, CoACD decomposition, its cache and the shipped meshes."""
 
 import dataclasses
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import coacd
 import numpy as np
@@ -8,7 +13,7 @@ import pytest
 import trimesh
 from scipy.spatial import ConvexHull
 
-from entangle_bench import objects
+from entangle_bench import objects, resources
 from entangle_bench.errors import MeshError
 from entangle_bench.objects import meshes
 from entangle_bench.objects.geometry import ConvexMesh, union_moments
@@ -110,8 +115,8 @@ def test_shipped_meshes_are_precomputed_convex_and_cover_the_mesh(name, monkeypa
     monkeypatch.setattr(coacd, "run_coacd", forbidden)
     params = objects.default_params(name)
     mesh, _ = meshes.load_mesh(params.path, params.scale)
-    result = meshes.decompose(mesh, params.coacd, params.cache_path, label=params.path.stem)
-    assert result.from_cache
+    result = meshes.decompose_object(params, mesh)
+    assert result.from_cache and result.path.parent == resources.shipped_cache_dir()
     assert all(_is_convex(v, f) for v, f in result.parts)
     assert _union_ratio(result.parts, mesh.volume) == pytest.approx(1.0, abs=0.10)
     objects.clear_build_cache()
@@ -119,6 +124,31 @@ def test_shipped_meshes_are_precomputed_convex_and_cover_the_mesh(name, monkeypa
     assert info.n_parts == len(result.parts)
     assert info.mass_kg == pytest.approx(1000.0 * mesh.volume)  # default density
     assert 0.0 < info.phi_t <= 1.0
+
+
+def test_cache_key_depends_on_the_file_bytes_scale_and_settings_only(tmp_path):
+    ring = trimesh.creation.annulus(r_min=0.02, r_max=0.03, height=0.01, sections=12)
+    lf, crlf = tmp_path / "lf.obj", tmp_path / "crlf.obj"
+    ring.export(lf)
+    crlf.write_bytes(lf.read_bytes().replace(b"\n", b"\r\n"))
+    assert meshes.file_digest(lf) == meshes.file_digest(crlf) != meshes.file_digest(lf, scale=0.5)
+    key = meshes.cache_key(meshes.file_digest(lf), TINY)
+    assert key != meshes.cache_key(meshes.file_digest(lf), dataclasses.replace(TINY, seed=1))
+    assert len(key) == 64 and int(key, 16) >= 0
+
+
+def test_installed_package_writes_new_decompositions_to_the_user_cache(tmp_path, monkeypatch):
+    box = trimesh.creation.box(extents=[0.02, 0.02, 0.02])
+    path = tmp_path / "ring.obj"
+    trimesh.creation.annulus(r_min=0.02, r_max=0.03, height=0.01, sections=12).export(path)
+    monkeypatch.setattr(coacd, "run_coacd", lambda *a, **k: [(box.vertices, box.faces)])
+    monkeypatch.setattr(resources, "source_tree", lambda: False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    params = meshes.MeshObjectParams(str(path), coacd=TINY)
+    mesh, _ = meshes.load_mesh(path)
+    first = meshes.decompose_object(params, mesh)
+    assert not first.from_cache and first.path.parent == tmp_path / "xdg" / "entangle-bench" / "coacd"
+    assert meshes.decompose_object(params, mesh).from_cache
 
 
 def test_missing_and_empty_files(tmp_path):
@@ -198,3 +228,43 @@ def test_stable_pose_puts_a_slab_on_its_broad_face():
 def test_coacd_settings_are_validated():
     with pytest.raises(Exception, match="coacd.threshold"):
         meshes.CoacdSettings(threshold=5.0)
+
+
+FRESH_CLONE_CHECK = """
+import coacd
+
+def forbidden(*args, **kwargs):
+    raise AssertionError("coacd ran: a committed cache missed")
+
+coacd.run_coacd = forbidden
+import entangle_bench
+from entangle_bench import objects
+from entangle_bench.objects import meshes
+
+assert entangle_bench.__file__.startswith({root!r}), entangle_bench.__file__
+for name in objects.names():
+    if objects.is_mesh_object(name):
+        params = objects.default_params(name)
+        result = meshes.decompose_object(params, meshes.load_mesh(params.path, params.scale)[0])
+        assert result.from_cache, name
+        objects.object_info(name)
+"""
+
+
+def test_a_fresh_clone_loads_every_mesh_object_from_the_committed_caches(tmp_path):
+    """The committed cache keys hit in a clean checkout of HEAD, with an empty user cache; nothing is written."""
+    root = Path(__file__).resolve().parents[2]
+    if shutil.which("git") is None or subprocess.run(["git", "-C", root, "rev-parse"], capture_output=True).returncode:
+        pytest.skip("needs git and a git checkout")
+    head = subprocess.run(["git", "-C", root, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    clone = tmp_path / "clone"
+    subprocess.run(["git", "clone", "--quiet", "--shared", "--no-checkout", root, clone], check=True)
+    subprocess.run(["git", "-C", clone, "checkout", "--quiet", head], check=True)
+    env = dict(os.environ, PYTHONPATH=str(clone), XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    check = subprocess.run([sys.executable, "-c", FRESH_CLONE_CHECK.format(root=str(clone))], cwd=clone, env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert check.returncode == 0, check.stderr[-2000:]
+    status = subprocess.run(["git", "-C", clone, "status", "--porcelain", "--ignored"], capture_output=True,
+                            text=True).stdout
+    assert [line for line in status.splitlines() if "__pycache__" not in line] == []
+    assert not (tmp_path / "xdg").exists()

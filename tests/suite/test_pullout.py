@@ -162,9 +162,9 @@ def test_object_welded_to_the_accelerating_hub_reads_weight_plus_inertia(tmp_pat
         ),
     )
     spec = runner.TrialSpec("pullout/sphere", "hub", config, 0, "explicit")
-    row = run_trial(spec, state_dir=tmp_path)
+    row = run_trial(spec, folder=tmp_path)
     assert row["outcome"] == "success" and row["pull_result"] == "held"
-    curve = read_curve(state_path(tmp_path, spec.trial_id, "series"))
+    curve = read_curve(state_path(tmp_path / "states", spec.trial_id, "series"))
     mass, accel = objects.object_info("sphere").mass_kg, 0.5 / 0.1
     elapsed = curve.time_s - curve.time_s[0]
     ramp, after = (elapsed > 0.02) & (elapsed < 0.1), elapsed > 0.13
@@ -309,8 +309,8 @@ def test_unstable_pull_is_unstable_and_never_scored(nan_at):
 def test_curve_file_reads_back_and_bad_files_name_the_problem(tmp_path):
     config = resolve_config("pullout/sphere", "fast", SHORT_PULL_SEQUENCE)
     spec = runner.TrialSpec("pullout/sphere", "s", config, 1, "fast")
-    row = run_trial(spec, state_dir=tmp_path)
-    path = state_path(tmp_path, spec.trial_id, "series")
+    row = run_trial(spec, folder=tmp_path)
+    path = state_path(tmp_path / "states", spec.trial_id, "series")
     curve = read_curve(path)
     assert isinstance(curve, PullCurve) and curve.force_n.shape == (len(curve.time_s), 3)
     assert curve.displacement_m[0] == 0.0 and curve.displacement_m[-1] == pytest.approx(row["travel_m"])
@@ -324,7 +324,7 @@ def test_curve_file_reads_back_and_bad_files_name_the_problem(tmp_path):
     with pytest.raises(FileFormatError, match="cut.npz: key 'pull_force_n' is missing"):
         read_curve(tmp_path / "cut.npz")
     (tmp_path / "junk.npz").write_text("not an archive")
-    with pytest.raises(FileFormatError, match="junk.npz: not a readable"):
+    with pytest.raises(FileFormatError, match="junk.npz: not an npz archive"):
         read_curve(tmp_path / "junk.npz")
 
 

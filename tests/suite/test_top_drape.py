@@ -92,12 +92,12 @@ def test_short_real_trial_of_default_tree_task(tmp_path):
     """The default task and preset, shortened phases: the row, the saved states and the config agree."""
     config = resolve_config("eight_branch_tree", None, SHORT_SEQUENCE)
     spec = TrialSpec("top_drape/eight_branch_tree", "tree", config, 0, "balanced")
-    row = run_trial(spec, state_dir=tmp_path)
+    row = run_trial(spec, folder=tmp_path)
     assert row["outcome"] in ("success", "failure")
     assert row["success"] == (row["outcome"] == "success") and (row["failure_mode"] == "") == row["success"]
     assert row["sim_time_s"] == pytest.approx(Schedule.from_config(config, 0.144).t_end, abs=0.02)
     for name in ("actuated", "held"):
-        saved = np.load(tmp_path / f"{spec.trial_id}_{name}.npz")
+        saved = np.load(tmp_path / "states" / f"{spec.trial_id}_{name}.npz")
         assert saved["curves"].shape == (12, 17, 3)  # 12 filaments, balanced: 16 segments
         assert row[f"{name}.acn_total"] == pytest.approx(acn_total(saved["curves"]), rel=1e-12)
         for kind in KINDS:
