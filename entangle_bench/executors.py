@@ -291,10 +291,11 @@ class RayExecutor:
                     continue
                 yield items[index], result
         finally:
-            for ref in refs:
-                ray.cancel(ref, force=True)
-            if started:
+            if started:  # our own local instance: shutting it down kills its workers
                 ray.shutdown()
+            else:  # a shared cluster: stop our tasks only (cancelling while Ray also tears down can abort Ray 2.60)
+                for ref in refs:
+                    ray.cancel(ref, force=True)
 
 
 def _call(fn: Callable[[T], R], item: T) -> R:
