@@ -110,13 +110,46 @@ def replace_path(config: Any, path: str, value: Any) -> Any:
 
 
 def apply_overrides(config: Any, overrides: typing.Iterable[str]) -> Any:
-    """Apply `a.b=value` strings to a frozen dataclass, checking names and types."""
+    """Apply `a.b=value` strings to a frozen dataclass, checking names and types.
+
+    Overrides of fields of one dataclass are applied together (one `dataclasses.replace`), so fields that are
+    only valid together (e.g. `gripper.ring_diameters_m` and `gripper.ring_counts`) can be changed at once;
+    a later override of the same field wins.
+    """
+    tree: dict[str, Any] = {}
     for item in overrides:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ParameterError(f"override {item!r} must look like name.field=value")
-        config = replace_path(config, key.strip(), value.strip())
-    return config
+        *parents, leaf = key.strip().split(".")
+        node = tree
+        for name in parents:
+            node = node.setdefault(name, {})
+            if not isinstance(node, dict):
+                raise ParameterError(f"override {item!r}: {name!r} is set as a value and as a group")
+        node[leaf] = value.strip()
+    return _replace_tree(config, tree, "")
+
+
+def _replace_tree(config: Any, tree: dict[str, Any], prefix: str) -> Any:
+    """`config` with the fields in `tree` (text values or nested trees) replaced in one step per dataclass."""
+    if not dataclasses.is_dataclass(config):
+        raise ParameterError(f"cannot set '{prefix}{next(iter(tree))}': {type(config).__name__} has no fields")
+    hints = typing.get_type_hints(type(config))
+    names = [f.name for f in dataclasses.fields(config)]
+    changes = {}
+    for name, value in tree.items():
+        if name not in names:
+            raise ParameterError(
+                f"unknown setting '{prefix}{name}' in {type(config).__name__}; known: {', '.join(names)}"
+            )
+        if isinstance(value, dict):
+            changes[name] = _replace_tree(getattr(config, name), value, f"{prefix}{name}.")
+        elif hints[name] is not str:
+            changes[name] = _coerce(value, hints[name], f"{prefix}{name}")
+        else:
+            changes[name] = value
+    return dataclasses.replace(config, **changes)
 
 
 def to_flat_dict(config: Any, prefix: str = "") -> dict[str, Any]:

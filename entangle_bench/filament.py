@@ -71,6 +71,9 @@ class FilamentParams:
     """Kelvin-Voigt relaxation time: each joint's damping is its stiffness times this, N m s/rad."""
     curvature_calibration: float = float("nan")
     """Dimensionless c of the actuation law; NaN means the calibrated default (see `default_calibration`)."""
+    twist_ratio: float = 0.0
+    """Rest twist per unit rest curvature, tau / kappa: 0 curls in a plane; > 0 coils into a helix of radius
+    kappa / (kappa^2 + tau^2) and pitch 2 pi tau / (kappa^2 + tau^2) that can wind past itself."""
     joints: JointModel = "ball"
     """How each segment joins its parent: "hinges" (twist, out-of-plane and in-plane bending hinges with
     stiffness GJ, E I_side and E I_bend per segment length: right in 3D) or "ball" (one ball joint with an
@@ -97,6 +100,7 @@ class FilamentParams:
         if not math.isnan(self.curvature_calibration):
             check_range("filament.curvature_calibration", self.curvature_calibration, 0.0, None)
         check_choice("filament.joints", self.joints, ("hinges", "ball"))
+        check_range("filament.twist_ratio", self.twist_ratio, -2.0, 2.0)
 
     @property
     def segment_length_m(self) -> float:
@@ -455,6 +459,30 @@ class ChainJoints:
             axes, angles = rest_hinges(w, ds, axis)
             model.jnt_axis[self.ids[f, 0]] = axes[0]
             model.jnt_axis[self.ids[f, 1:]] = axes[1]
+            model.qpos_spring[self.qpos[f, 0]] = angles[0]
+            model.qpos_spring[self.qpos[f, 1:]] = angles[1]
+
+    def set_rest_uniform(
+        self, model: mujoco.MjModel, curvature_per_m: float, twist_per_m: float, ds: float, bend_axes: np.ndarray
+    ) -> None:
+        """Rest shapes of filaments that differ only in their curl axes `bend_axes` (F, 3), unit, normal to x.
+
+        Darboux vector tau x + kappa axis (1/m) per filament; the hinges' rest angles are shared and their axes
+        turned about x from one solution (`set_rest` solves every filament).
+        """
+        bend_axes = np.atleast_2d(np.asarray(bend_axes, dtype=float))
+        darboux = curvature_per_m * bend_axes
+        darboux[:, 0] += twist_per_m
+        if self.joints == "ball":
+            self.set_rest(model, darboux, ds, bend_axes)
+            return
+        axes, angles = rest_hinges(np.array([twist_per_m, 0.0, curvature_per_m]), ds)
+        for f, axis in enumerate(bend_axes):
+            alpha = math.atan2(-axis[1], axis[2])  # rotation about x taking z onto the curl axis
+            cos, sin = math.cos(alpha), math.sin(alpha)
+            turn = np.array([[1.0, 0.0, 0.0], [0.0, cos, -sin], [0.0, sin, cos]])
+            model.jnt_axis[self.ids[f, 0]] = axes[0] @ turn.T
+            model.jnt_axis[self.ids[f, 1:]] = axes[1] @ turn.T
             model.qpos_spring[self.qpos[f, 0]] = angles[0]
             model.qpos_spring[self.qpos[f, 1:]] = angles[1]
 

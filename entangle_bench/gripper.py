@@ -206,8 +206,9 @@ class Gripper:
         """Write the rest shape for `pressure_pa` into the model (spring references, hinge axes); return kappa, 1/m."""
         fil = self.params.filament
         kappa = fil.curvature_per_m(pressure_pa)
-        axes = self.bend_axes(angles_rad)
-        self.joints.set_rest(model, kappa * axes, fil.segment_length_m, axes)
+        self.joints.set_rest_uniform(
+            model, kappa, fil.twist_ratio * kappa, fil.segment_length_m, self.bend_axes(angles_rad)
+        )
         return kappa
 
 

@@ -86,3 +86,21 @@ def test_preset_sets_segment_count_and_numerics_only():
 def test_filament_default_segments_are_the_default_presets():
     assert FilamentParams().n_segments == PRESETS[DEFAULT_PRESET].n_segments
     assert apply_preset(SceneConfig()) == SceneConfig()  # the defaults are already the default preset
+
+
+@pytest.mark.parametrize("joints", ["hinges", "ball"])
+def test_shared_rest_shape_matches_per_filament_solution(joints):
+    # set_rest_uniform turns one hinge solution about x for every curl axis; it must equal solving each.
+    filament = FilamentParams(n_segments=6, joints=joints, twist_ratio=0.3)
+    params = GripperParams(filament=filament, ring_diameters_m=(0.02,), ring_counts=(3,))
+    scene = build_scene(SceneConfig(gripper=params))
+    model, gripper = scene.model, scene.gripper
+    angles = np.array([0.3, 2.0, -1.2])
+    kappa = gripper.set_pressure(model, 100e3, angles)
+    shared = (model.jnt_axis.copy(), model.qpos_spring.copy())
+    axes = gripper.bend_axes(angles)
+    darboux = kappa * axes
+    darboux[:, 0] += 0.3 * kappa
+    gripper.joints.set_rest(model, darboux, filament.segment_length_m, axes)
+    np.testing.assert_allclose(model.jnt_axis, shared[0], atol=1e-9)
+    np.testing.assert_allclose(model.qpos_spring, shared[1], atol=1e-9)

@@ -51,8 +51,9 @@ def _unwritable(tmp_path: Path) -> Path:
         (["sphere", "--trials", "0"], "--trials '0': must be a positive integer"),
         (["sphere", "--trials", "two"], "--trials 'two': must be a positive integer"),
         (["sphere", "--preset", "quick"], "unknown preset 'quick'; known: accurate, balanced, fast"),
-        (["default", "--set", "phases.hold_time_s=long"], "--set on suite default, condition conditions[0] "
-                                                         "(task top_drape/eight_branch_tree): hold_time_s: expected"),
+        (["default", "--set", "phases.hold_time_s=long"],
+         "--set on suite default, condition conditions[0] (task top_drape/eight_branch_tree): "
+         "phases.hold_time_s: expected"),
         (["offsets", "--set", "offset_m=0.01"], "use --offsets to change the offsets"),
         (["no_such_thing"], "unknown suite or task 'no_such_thing'; known: "),
     ],
