@@ -32,6 +32,7 @@ import multiprocessing.connection
 import os
 import signal
 import sys
+import threading
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -88,7 +89,8 @@ def _die_with_parent(parent: int) -> None:
 
 def _worker_main(conn: multiprocessing.connection.Connection, fn: Callable[[Any], Any], parent: int) -> None:
     """A worker process: run fn on each (index, item) received, send (index, ok, result) back; None stops."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the driver's; one pending since start-up is dropped
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     _die_with_parent(parent)
     while True:
         try:
@@ -106,17 +108,21 @@ def _worker_main(conn: multiprocessing.connection.Connection, fn: Callable[[Any]
 
 
 @contextlib.contextmanager
-def _sigint_ignored() -> Iterator[None]:
-    """Ignore SIGINT in this process while the block runs (main thread only; elsewhere a no-op)."""
-    try:
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:  # not the main thread
+def _sigint_held() -> Iterator[None]:
+    """Block SIGINT in this thread while the block runs (main thread only; elsewhere a no-op).
+
+    A process started inside inherits the blocked mask through exec, so a Ctrl-C while it starts up stays pending
+    there until the worker ignores SIGINT; the driver gets a Ctrl-C that arrived meanwhile when the block ends,
+    instead of losing it.
+    """
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def _death_reason(exitcode: int | None) -> str:
@@ -135,7 +141,7 @@ class _Worker:
     def __init__(self, context: Any, fn: Callable[[Any], Any]):
         self.conn, child = context.Pipe()
         self.process = context.Process(target=_worker_main, args=(child, fn, os.getpid()), daemon=True)
-        with _sigint_ignored():  # inherited through exec: a Ctrl-C while the worker starts up is the driver's
+        with _sigint_held():  # inherited through exec: a Ctrl-C while the worker starts up is the driver's
             self.process.start()
         child.close()
         self.job: tuple[int, Any] | None = None

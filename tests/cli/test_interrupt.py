@@ -68,8 +68,10 @@ def test_a_signal_stops_the_workers_and_keeps_the_log_whole(tmp_path, signum, co
             "--preset", "fast", "--out", str(out), "--no-progress", "--executor", executor]
     argv += [a for s in SHORT_SEQUENCE for a in ("--set", s)]
     env = dict(os.environ, RAY_AUTH_MODE="disabled")  # a local Ray instance for seconds: no token file in ~/.ray
+    # SIGINT at its default disposition in the driver even where this test runs with it ignored (a background
+    # job of a non-interactive shell), which Python would otherwise keep.
     driver = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                              env=env)
+                              env=env, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         log = out / "trials.jsonl"
         # two workers (and multiprocessing's resource tracker), and one trial done, so both workers are busy
