@@ -1,7 +1,8 @@
 """Benchmark: wall time per trial of the default tree task and trials per hour with 1 and 2 workers.
 
-Runs N seeded default trials (balanced preset unless --preset) into a scratch log and prints a markdown
-table. Usage: python scripts/bench_trials.py [--trials 4] [--preset balanced]
+Runs N seeded default trials (balanced preset unless --preset; `--set a.b=v` overrides, e.g. the
+`calibration` suite's settings) into a scratch log and prints a markdown table.
+Usage: python scripts/bench_trials.py [--trials 4] [--preset balanced] [--set a.b=v ...]
 """
 
 from __future__ import annotations
@@ -25,10 +26,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--trials", type=int, default=4)
     parser.add_argument("--preset", default="balanced")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
     args = parser.parse_args()
-    config = resolve_config("eight_branch_tree", args.preset)
+    config = resolve_config("eight_branch_tree", args.preset, args.overrides)
     print(f"machine: {platform.machine()} python {platform.python_version()} mujoco {mujoco.__version__}; "
-          f"default eight_branch_tree trial, preset {args.preset}")
+          f"default eight_branch_tree trial, preset {args.preset} {' '.join(args.overrides)}")
     print("| workers | trials | wall (s) | mean wall per trial (s) | sim time per trial (s) | real-time factor "
           "| trials per hour |")
     print("|---|---|---|---|---|---|---|")
