@@ -7,11 +7,11 @@ bending (E I_side/ds) and in-plane bending (E I_bend/ds), so twist and both bend
 own and the chain is right in 3D. `joints="ball"` (the default until the grasp calibration re-derives the
 presets: at their coarse 2 ms numerics the hinge chain penetrates in contact) uses one ball joint with an
 isotropic spring EI/ds instead, whose twist is (1 + nu) too stiff: 3-28 % of L off on curled filaments
-loaded out of their plane. The clamp joint at s = 0 has the half Voronoi length, so twice the stiffness and half the rest
-rotation, which makes the clamp second-order accurate. Rest shape (the spring reference `qpos_spring`) is a
-uniform Darboux vector Omega = tau t + k1 d1 + k2 d2 in the material frame: the rest rotation between
-consecutive segments is exp(ds [Omega]x), the discrete analogue of a rod with uniform intrinsic curvature and
-twist (Kirchhoff rod); the hinge rest angles reproduce it exactly (`rest_hinges`).
+loaded out of their plane. The clamp joint at s = 0 has the half Voronoi length, so twice the stiffness and
+half the rest rotation, which makes the clamp second-order accurate. Rest shape (the spring reference
+`qpos_spring`) is a uniform Darboux vector Omega = tau t + k1 d1 + k2 d2 in the material frame: the rest
+rotation between consecutive segments is exp(ds [Omega]x), the discrete analogue of a rod with uniform
+intrinsic curvature and twist (Kirchhoff rod); the hinge rest angles reproduce it exactly (`rest_hinges`).
 
 Frame: each segment body's local x axis is the tangent t, local y the first material director d1, local z the
 second director d2 = t x d1 (the layout of MuJoCo's composite cable).

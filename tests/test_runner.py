@@ -90,7 +90,10 @@ def test_suite_errors_name_file_key_and_problem(tmp_path):
 
 
 def test_shipped_suites_load():
-    assert SUITES.names() == ["branch_length", "calibration", "default", "grasp_probe", "objects", "offsets", "pullout", "spacing", "tree_mass"]
+    assert SUITES.names() == [
+        "branch_length", "calibration", "default", "grasp_probe", "objects", "offsets", "pullout", "spacing",
+        "tree_mass",
+    ]
     for name in SUITES.names():
         suite = load_suite(name, trials=1)
         assert suite.specs and len({s.trial_id for s in suite.specs}) == len(suite.specs), name

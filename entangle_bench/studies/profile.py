@@ -40,12 +40,25 @@ class _PhaseLoad:
     iterations: int = 0
     stage_s: dict[str, float] = field(default_factory=lambda: dict.fromkeys(STAGES, 0.0))
 
+    def add(self, steps: int, wall_s: float, sim_s: float, contacts: int, iterations: int,
+            stage_s: dict[str, float]) -> None:
+        """Count one control step: physics steps, wall and simulated s, contacts, iterations, stage s."""
+        self.steps += steps
+        self.control_steps += 1
+        self.wall_s += wall_s
+        self.sim_s += sim_s
+        self.contacts += contacts
+        self.iterations += iterations
+        for name, seconds in stage_s.items():
+            self.stage_s[name] += seconds
+
 
 class StageProfile:
     """Observer: MuJoCo stage time, wall time, contacts and solver iterations per phase of one trial."""
 
     def __init__(self) -> None:
         self.phases: dict[str, _PhaseLoad] = {}
+        self.total = _PhaseLoad()
         self._last: dict[str, float] = {}
         self._steps = 0
         self._time = 0.0
@@ -67,16 +80,17 @@ class StageProfile:
         now = self._read(data)
         steps = int(data.timer[int(mujoco.mjtTimer.mjTIMER_STEP)].number)
         clock = time.perf_counter()
-        phase = self.phases.setdefault(env.task.phase(physics), _PhaseLoad())
         # The step just run belongs to the phase the task is in now, except at a boundary (one step, negligible).
-        phase.steps += steps - self._steps
-        phase.control_steps += 1
-        phase.wall_s += clock - self._clock
-        phase.sim_s += physics.data.time - self._time
-        phase.contacts += int(data.ncon)
-        phase.iterations += int(data.solver_niter[0])
-        for name in STAGES:
-            phase.stage_s[name] += now[name] - self._last[name]
+        counted = (
+            steps - self._steps,
+            clock - self._clock,
+            physics.data.time - self._time,
+            int(data.ncon),
+            int(data.solver_niter[0]),
+            {name: now[name] - self._last[name] for name in STAGES},
+        )
+        for load in (self.phases.setdefault(env.task.phase(physics), _PhaseLoad()), self.total):
+            load.add(*counted)
         self._last, self._steps, self._time, self._clock = now, steps, physics.data.time, clock
 
     def finish(self, row: dict[str, Any], complete: bool) -> None:
@@ -86,18 +100,7 @@ class StageProfile:
         """One row per phase (and `all`): wall s per simulated s, µs per physics step, stage shares (%),
         mean contacts and solver iterations at the control steps."""
         rows = []
-        loads = dict(self.phases)
-        total = _PhaseLoad()
-        for load in loads.values():
-            total.steps += load.steps
-            total.control_steps += load.control_steps
-            total.wall_s += load.wall_s
-            total.sim_s += load.sim_s
-            total.contacts += load.contacts
-            total.iterations += load.iterations
-            for name in STAGES:
-                total.stage_s[name] += load.stage_s[name]
-        loads["all"] = total
+        loads = {**self.phases, "all": self.total}
         for name, load in loads.items():
             if load.steps == 0 or load.sim_s <= 0:
                 continue
