@@ -186,6 +186,7 @@ def simulate(
             row.update(outcome=outcome.status, failure_mode=outcome.failure_mode)
         row.update(bench_task.metrics(physics))
         row["sim_time_s"] = physics.time()
+        row["max_penetration_m"] = watchdog.stats.max_penetration_m
         arrays = {name: np.asarray(values) for name, values in series.items()}
         if arrays and state_dir is not None:
             atomic_save_npz(state_path(state_dir, trial, "series"), **arrays)

@@ -236,7 +236,12 @@ def envelope_warnings(config: object) -> list[str]:
     if not (math.isclose(n_eq, fil.n_segments) and math.isclose(e_eq, fil.youngs_modulus_pa)):
         where += " (reference-filament equivalent)"
     dt_max = max_stable_timestep_s(num.integrator, n_eq, e_eq)
-    if dt_max is None:
+    if num.integrator not in ENVELOPE:
+        out.append(
+            f"the {num.integrator} integrator is not in the measured stability map "
+            f"(mapped: {', '.join(ENVELOPE)}); stability is unknown"
+        )
+    elif dt_max is None:
         out.append(
             f"{where} with the {num.integrator} integrator lies outside the measured stability map "
             f"(up to {max(MAP_SEGMENTS)} reference segments, "
@@ -257,8 +262,8 @@ def envelope_warnings(config: object) -> list[str]:
             f"{COIL_TIMESTEP_NUMBER:g} (c = sqrt(EI / (rho A))): the coil curls faster than the "
             f"timestep resolves; use at most {coil * 1e3:.3g} ms"
         )
-    base = base_numerics(num.integrator)
-    if num.twist_armature_scale < base.twist_armature_scale:
+    base = MAP_NUMERICS.get(num.integrator)
+    if base is not None and num.twist_armature_scale < base.twist_armature_scale:
         out.append(
             f"numerics.twist_armature_scale = {num.twist_armature_scale:g} is below the "
             f"{base.twist_armature_scale:g} the stability map used for {num.integrator}; "

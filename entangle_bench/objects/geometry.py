@@ -526,7 +526,8 @@ class Shape:
     convex hull is the object's (default: the parts' hull points); mesh objects use the source
     mesh for all three.
     `axis_xy` is the object's vertical axis in x, y (default: the centre of its bounding box).
-    `notes` says what was repaired or approximated.
+    `notes` says what was repaired or approximated. `orientation_free`: every orientation of the object is
+    the same object (a ball), so a grasp is not judged by how upright it holds it.
     """
 
     parts: tuple[Part, ...]
@@ -537,3 +538,4 @@ class Shape:
     hull: np.ndarray | None = None
     axis_xy: tuple[float, float] | None = None
     notes: tuple[str, ...] = ()
+    orientation_free: bool = False

@@ -43,7 +43,7 @@ def build_sphere(p: SphereParams) -> Shape:
     dims = {"diameter_m": p.diameter_m}
     if p.shell_thickness_m is not None:
         dims["shell_thickness_m"] = p.shell_thickness_m
-    return Shape((ball,), p.mass_kg, dims)
+    return Shape((ball,), p.mass_kg, dims, orientation_free=True)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -76,6 +76,8 @@ class ObjectInfo:
     center_of_mass_m: tuple[float, float, float]
     inertia_kg_m2: tuple[tuple[float, float, float], ...]
     notes: tuple[str, ...] = ()
+    orientation_free: bool = False
+    """Every orientation is the same object (a ball): the upright criterion does not apply."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -154,6 +156,7 @@ def _build(name: str, params: Any) -> BuiltObject:
         center_of_mass_m=tuple(float(x) for x in material.center),
         inertia_kg_m2=tuple(tuple(float(x) for x in row) for row in inertia),
         notes=shape.notes,
+        orientation_free=shape.orientation_free,
     )
     return BuiltObject(info, parts, material.center, inertia)
 

@@ -152,6 +152,10 @@ class ScenePhysics(dm_mujoco.Physics):
         body = self.scene.object_body
         return self.data.xpos[body].copy(), self.data.xquat[body].copy()
 
+    def object_orientation_free(self) -> bool:
+        """Whether every orientation of the object is the same object (a ball)."""
+        return self.scene.object_info is not None and self.scene.object_info.orientation_free
+
     def object_lowest_z(self) -> float:
         """Lower bound of the object's lowest point from its geoms' bounding boxes, m."""
         model, data = self.model.ptr, self.data.ptr

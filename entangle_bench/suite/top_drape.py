@@ -154,12 +154,14 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         """Track the grasp and what carries the object; decide the outcome once the hold is over.
 
         Success: for the whole hold the object's lowest point stays at least `success_margin_m` above the
-        ground and its vertical axis within `max_tilt_deg` of the world's. Failure modes: never_lifted,
+        ground and its vertical axis within `max_tilt_deg` of the world's (not for an orientation-free object,
+        a ball, whose tilt is recorded but not judged). Failure modes: never_lifted,
         dropped_during_lift (low when the hold starts), dropped_during_hold, tilted (held up but tipped).
         """
         t, s, track, cfg = physics.time(), self.schedule, self._tracking, self.config
         pos, quat = physics.object_pose()
         low, tilt = physics.object_lowest_z(), object_tilt_deg(quat)
+        tilted = tilt > cfg.max_tilt_deg and not physics.object_orientation_free()
         track.max_rise_m = max(track.max_rise_m, pos[2] - self._object_z0)
         phase = s.phase(t - 1e-9)
         if phase in ("lift", "hold"):
@@ -173,7 +175,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
             if track.hold_reached_s == 0.0 and low < cfg.success_margin_m:
                 track.low_at_hold_start = True
             if track.hold_failed_at_s is None:
-                if low < cfg.success_margin_m or tilt > cfg.max_tilt_deg:
+                if low < cfg.success_margin_m or tilted:
                     track.hold_failed_at_s = t - s.t_hold
                     track.failed_by_tilt = low >= cfg.success_margin_m
                 else:

@@ -5,17 +5,27 @@
 `tests/test_pinned_rows.py` recomputes these rows and compares them column by column, so a refactor that
 changes any simulated number fails. Regenerate only on purpose (e.g. after a calibration changes the
 physics defaults) and say so in the commit.
+
+The rows are bit-exact only on machines with the same floating point: two AMD EPYC machines (one with
+AVX-512) gave the same outcomes, sim times and hold times, but ACN and contact counts differed (ACN by
+1e-13 to 9 % relative: libm and SIMD code paths differ, and contact-rich trials are chaotic), lift height
+by 0.3 %. The file therefore stores a fingerprint of the machine's floating point (`float_fingerprint`);
+where it differs, the test compares the outcome columns only.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import sys
 from pathlib import Path
 from typing import Any
 
-from entangle_bench.runner import TrialSpec, run_trial
+import numpy as np
+
+from entangle_bench.metrics.acn import acn_pair
+from entangle_bench.runner import TrialSpec, run_trial, simulate
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
 
 PATH = Path(__file__).resolve().parent / "pinned_rows.json"
@@ -57,6 +67,12 @@ COLUMNS = (
     "sim_time_s",
 )
 
+#: Columns compared where the floating point differs from the generating machine (exactly, but
+#: `lift_height_m` within LIFT_TOLERANCE and `unstable_time_s` within UNSTABLE_TIME_TOLERANCE_S).
+OUTCOME_COLUMNS = COLUMNS
+LIFT_TOLERANCE = 0.01
+UNSTABLE_TIME_TOLERANCE_S = 0.05
+
 
 def spec_of(case: dict[str, Any]) -> TrialSpec:
     """The trial spec of one stored case, built through the public API."""
@@ -68,6 +84,16 @@ def pinned_columns(row: dict[str, Any]) -> dict[str, Any]:
     """The deterministic columns of a results row (identity, outcome, metrics; no wall time or versions)."""
     keys = list(COLUMNS) + sorted(k for k in row if k.startswith(("actuated.", "held.")))
     return {k: row[k] for k in keys}
+
+
+def float_fingerprint() -> str:
+    """Hash of a short chaotic trial's final joint positions and of one ACN sum (MuJoCo and numpy floating point)."""
+    config = resolve_config("top_drape/eight_branch_tree", "fast", SHORT_SEQUENCE)
+    env = simulate("top_drape/eight_branch_tree", config, 0).env
+    curves = np.random.default_rng(0).normal(size=(2, 40, 3)).cumsum(axis=1)
+    digest = hashlib.sha256(env.physics.data.qpos.tobytes())
+    digest.update(np.float64(acn_pair(curves[0], curves[1])).tobytes())
+    return digest.hexdigest()[:16]
 
 
 def make_rows() -> list[dict[str, Any]]:
@@ -85,7 +111,8 @@ def make_rows() -> list[dict[str, Any]]:
 
 def main() -> int:
     """Write pinned_rows.json next to this file."""
-    PATH.write_text(json.dumps(make_rows(), indent=1, sort_keys=True) + "\n")
+    pinned = {"fingerprint": float_fingerprint(), "rows": make_rows()}
+    PATH.write_text(json.dumps(pinned, indent=1, sort_keys=True) + "\n")
     print(f"wrote {PATH}")
     return 0
 

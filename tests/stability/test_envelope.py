@@ -103,6 +103,11 @@ def test_out_of_envelope_settings_are_named():
         ],
     )
     assert any("too long for the actuated coil" in w for w in stiff_coil)
+    # An integrator the map has not measured is named, not looked up (it raised KeyError before).
+    assert any(
+        "discrete integrator is not in the measured stability map" in w
+        for w in warnings_for("balanced", ["numerics.integrator=discrete"])
+    )
     # Implicit integration keeps stiff fine filaments inside the envelope.
     assert warnings_for("accurate", ["gripper.filament.youngs_modulus_pa=1e7"]) == []
 

@@ -1,0 +1,78 @@
+"""Benchmark: MuJoCo's constraint solvers on one grasp state (cost per step, iterations, convergence).
+
+Runs the tree trial (with `--set` overrides, e.g. the `calibration` suite's settings) to `--at` seconds,
+saves the state, then steps `--steps` physics steps from that same state once per solver variant and prints
+a markdown table: ms per step, mean iterations, the last iteration's relative improvement (MuJoCo's
+`mjData.solver`; small means converged), deepest contact, and how far the variant's joint positions drift
+from the first variant's at the end (the trial is chaotic, so this is a scale, not an error).
+
+Usage: python scripts/bench_solvers.py [--preset balanced] [--set a.b=v ...] [--seed 0] [--at 2.9] [--steps 300]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import mujoco
+import numpy as np
+
+from entangle_bench.suite import TASKS, resolve_config
+
+#: Variants: name -> mjOption fields changed from the configuration's own numerics.
+VARIANTS: dict[str, dict[str, int]] = {
+    "configured": {},
+    "cg, 10 iterations": {"solver": mujoco.mjtSolver.mjSOL_CG, "iterations": 10},
+    "cg, 100 iterations": {"solver": mujoco.mjtSolver.mjSOL_CG, "iterations": 100},
+    "pgs, 30 iterations": {"solver": mujoco.mjtSolver.mjSOL_PGS, "iterations": 30},
+    "newton, 5 iterations": {"solver": mujoco.mjtSolver.mjSOL_NEWTON, "iterations": 5},
+    "newton, 30 iterations": {"solver": mujoco.mjtSolver.mjSOL_NEWTON, "iterations": 30},
+}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default="balanced")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--at", type=float, default=2.9, help="simulated time of the state, s")
+    parser.add_argument("--steps", type=int, default=300)
+    args = parser.parse_args()
+    task = "top_drape/eight_branch_tree"
+    env = TASKS.get(task).make_environment(resolve_config(task, args.preset, args.overrides), args.seed)
+    time_step, physics = env.reset(), env.physics
+    while physics.time() < args.at and not time_step.last():
+        time_step = env.step(env.task.scripted_action(physics))
+    model, data = physics.model.ptr, physics.data.ptr
+    kind = mujoco.mjtState.mjSTATE_INTEGRATION
+    state = np.empty(mujoco.mj_stateSize(model, kind))
+    mujoco.mj_getState(model, data, state, kind)
+    configured = {name: getattr(model.opt, name) for name in ("solver", "iterations")}
+    print(f"machine: {platform.machine()} python {platform.python_version()} mujoco {mujoco.__version__}; "
+          f"{task} preset {args.preset} seed {args.seed} {' '.join(args.overrides)}")
+    print(f"state at t = {physics.time():.3f} s ({env.task.phase(physics)}): nv {model.nv}, {data.ncon} contacts, "
+          f"{data.nefc} constraint rows; timestep {model.opt.timestep * 1e3:g} ms; {args.steps} steps each")
+    print("| solver | ms per step | mean iterations | last improvement | deepest contact (mm) | drift (rad) |")
+    print("|---|---|---|---|---|---|")
+    reference = None
+    for name, changes in VARIANTS.items():
+        for field, value in {**configured, **changes}.items():
+            setattr(model.opt, field, value)
+        mujoco.mj_setState(model, data, state, kind)
+        iterations, deepest = 0, 0.0
+        start = time.perf_counter()
+        for _ in range(args.steps):
+            mujoco.mj_step(model, data)
+            iterations += int(data.solver_niter[0])
+            if data.ncon:
+                deepest = max(deepest, -float(data.contact.dist[: data.ncon].min()))
+        wall = time.perf_counter() - start
+        last = data.solver[max(0, int(data.solver_niter[0]) - 1)].improvement
+        reference = data.qpos.copy() if reference is None else reference
+        print(f"| {name} | {1e3 * wall / args.steps:.2f} | {iterations / args.steps:.1f} | {last:.1e} | "
+              f"{1e3 * deepest:.2f} | {np.abs(data.qpos - reference).max():.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
