@@ -11,8 +11,8 @@ import pytest
 
 from entangle_bench.runner import run_trial
 from tests.data.make_pinned_rows import (
+    COLUMNS,
     LIFT_TOLERANCE,
-    OUTCOME_COLUMNS,
     PATH,
     UNSTABLE_TIME_TOLERANCE_S,
     float_fingerprint,
@@ -45,10 +45,11 @@ def test_row_is_unchanged(pinned, same_floating_point):
     for key, value in expected.items():
         if same_floating_point and isinstance(value, float):
             assert row[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
-        elif same_floating_point or key in OUTCOME_COLUMNS:
-            if key == "lift_height_m" and not same_floating_point:
-                assert row[key] == pytest.approx(value, rel=LIFT_TOLERANCE), key
-            elif key == "unstable_time_s" and value is not None and not same_floating_point:
-                assert row[key] == pytest.approx(value, abs=UNSTABLE_TIME_TOLERANCE_S), key
-            else:
-                assert row[key] == value, key
+        elif same_floating_point:
+            assert row[key] == value, key
+        elif key == "lift_height_m":
+            assert row[key] == pytest.approx(value, rel=LIFT_TOLERANCE), key
+        elif key == "unstable_time_s" and value is not None:
+            assert row[key] == pytest.approx(value, abs=UNSTABLE_TIME_TOLERANCE_S), key
+        elif key in COLUMNS:
+            assert row[key] == value, key

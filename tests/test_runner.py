@@ -14,7 +14,7 @@ from entangle_bench.metrics.stats import success_table, wilson_interval
 from entangle_bench.recording import read_recording
 from entangle_bench.results import TrialLog
 from entangle_bench.runner import Watch, run_trial, run_trials, simulate
-from entangle_bench.suite import SHORT_SEQUENCE, TASKS
+from entangle_bench.suite import SHORT_SEQUENCE
 from entangle_bench.suites import SUITES, load_suite, task_suite
 
 SHORT = SHORT_SEQUENCE
@@ -197,18 +197,18 @@ def test_observers_see_every_control_step_and_the_final_row(short_spec):
 
 
 class DeepestContact:
-    """Observer: the deepest contact (m) at the end of each control step after `grace_s`."""
+    """Observer: (time s, deepest contact m) at the end of each control step with contacts."""
 
-    def __init__(self, grace_s):
-        self.grace_s, self.deepest = grace_s, 0.0
+    def __init__(self):
+        self.depths = []
 
     def start(self, env):
         pass
 
     def step(self, env):
         data = env.physics.data.ptr
-        if env.physics.time() >= self.grace_s and data.ncon:
-            self.deepest = max(self.deepest, -float(data.contact.dist[: data.ncon].min()))
+        if data.ncon:
+            self.depths.append((env.physics.time(), -float(data.contact.dist[: data.ncon].min())))
 
     def finish(self, row, complete):
         pass
@@ -217,11 +217,12 @@ class DeepestContact:
 def test_row_records_the_deepest_contact_the_watchdog_saw(short_spec):
     """The row's max_penetration_m is the deepest contact over the control steps, measured here independently."""
     spec = short_spec("eight_branch_tree")
-    grace = TASKS.get(spec.task).make_environment(spec.config, 0).task.watchdog_limits().grace_time_s
-    probe = DeepestContact(grace)
-    row = simulate(spec.task, spec.config, spec.seed, observers=[probe]).row
-    assert probe.deepest > 1e-5  # the filaments touch the tree, so the check is not vacuous
-    assert row["max_penetration_m"] == pytest.approx(probe.deepest, rel=1e-12)
+    probe = DeepestContact()
+    result = simulate(spec.task, spec.config, spec.seed, observers=[probe])
+    grace = result.env.task.watchdog_limits().grace_time_s
+    deepest = max(depth for t, depth in probe.depths if t >= grace)
+    assert deepest > 1e-5  # the filaments touch the tree, so the check is not vacuous
+    assert result.row["max_penetration_m"] == pytest.approx(deepest, rel=1e-12)
 
 
 def test_unstable_trial_calls_finish_with_the_unstable_row(short_spec, nan_at):
