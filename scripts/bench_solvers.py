@@ -1,12 +1,14 @@
 """Benchmark: MuJoCo's constraint solvers on one grasp state (cost per step, iterations, convergence).
 
-Runs the tree trial (with `--set` overrides, e.g. the `calibration` suite's settings) to `--at` seconds,
-saves the state, then steps `--steps` physics steps from that same state once per solver variant and prints
-a markdown table: ms per step, mean iterations, the last iteration's relative improvement (MuJoCo's
-`mjData.solver`; small means converged), deepest contact, and how far the variant's joint positions drift
-from the first variant's at the end (the trial is chaotic, so this is a scale, not an error).
+Runs one trial (default: the tree; `--task`, `--preset`, `--seed`, `--set` overrides, e.g. the
+`calibration` suite's settings) to `--at` seconds, saves the state, then steps `--steps` physics steps from
+that same state once per solver variant and prints a markdown table: ms per step, mean iterations, the last
+iteration's relative improvement (MuJoCo's `mjData.solver`; small means converged), deepest contact, and how
+far the variant's joint positions drift from the first variant's at the end (the trial is chaotic, so this
+is a scale, not an error).
 
-Usage: python scripts/bench_solvers.py [--preset balanced] [--set a.b=v ...] [--seed 0] [--at 2.9] [--steps 300]
+Usage: python scripts/bench_solvers.py [--task eight_branch_tree] [--preset balanced] [--set a.b=v ...] [--seed 0]
+                                      [--at 2.9] [--steps 300]
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ import time
 import mujoco
 import numpy as np
 
-from entangle_bench.suite import TASKS, resolve_config
+from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
+from entangle_bench.suite import TASKS
 
 #: Variants: name -> mjOption fields changed from the configuration's own numerics.
 VARIANTS: dict[str, dict[str, int]] = {
@@ -33,14 +36,12 @@ VARIANTS: dict[str, dict[str, int]] = {
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="balanced")
-    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
-    parser.add_argument("--seed", type=int, default=0)
+    add_trial_arguments(parser)
     parser.add_argument("--at", type=float, default=2.9, help="simulated time of the state, s")
     parser.add_argument("--steps", type=int, default=300)
     args = parser.parse_args()
-    task = "top_drape/eight_branch_tree"
-    env = TASKS.get(task).make_environment(resolve_config(task, args.preset, args.overrides), args.seed)
+    task, config = trial_from_arguments(args)
+    env = TASKS.get(task).make_environment(config, args.seed)
     time_step, physics = env.reset(), env.physics
     while physics.time() < args.at and not time_step.last():
         time_step = env.step(env.task.scripted_action(physics))

@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from entangle_bench.runner import simulate
-from entangle_bench.suite import TASKS, resolve_config
+from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
 
 
 @dataclass
@@ -70,14 +70,10 @@ class ContactDepth:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--task", default="eight_branch_tree")
-    parser.add_argument("--preset", default="balanced")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
+    add_trial_arguments(parser)
     parser.add_argument("--deep", type=float, default=None, help="depth counted as deep, m (default: filament radius)")
     args = parser.parse_args()
-    task = TASKS.resolve(args.task)
-    config = resolve_config(task, args.preset, args.overrides)
+    task, config = trial_from_arguments(args)
     deep = args.deep if args.deep is not None else config.gripper.filament.outer_radius_m
     observer = ContactDepth(deep)
     row = simulate(task, config, args.seed, observers=[observer]).row

@@ -18,20 +18,16 @@ import mujoco
 from entangle_bench.results import atomic_write_csv
 from entangle_bench.studies.accuracy_time import markdown
 from entangle_bench.studies.profile import profile_trial
-from entangle_bench.suite import TASKS, resolve_config
+from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the trial, print and optionally write the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--task", default="eight_branch_tree")
-    parser.add_argument("--preset", default="balanced")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
+    add_trial_arguments(parser)
     parser.add_argument("--out", type=Path, default=None, help="also write the table as CSV")
     args = parser.parse_args(argv)
-    task = TASKS.resolve(args.task)
-    config = resolve_config(task, args.preset, args.overrides)
+    task, config = trial_from_arguments(args)
     result, table = profile_trial(task, config, args.seed)
     row = result.row
     print(

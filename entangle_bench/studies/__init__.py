@@ -3,5 +3,6 @@
 `accuracy_time`: what each numerical setting costs and how much accuracy it buys (rods and trials).
 `stability_map`: the stable region of modulus x timestep x segments per integrator, and tight coils.
 `pull_rate`: whether the pull-out test's peak force and toughness depend on the pull speed.
+`profile`: where one trial's time goes; `trial_args`: the task/preset/seed/`--set` arguments of one-trial scripts.
 All build and simulate through the library: rods through `rods`, trials and probes through `runner`.
 """
