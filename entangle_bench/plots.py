@@ -96,3 +96,18 @@ def plot_toughness(table: pd.DataFrame, path: str | os.PathLike, label: str = "c
     ax.legend(fontsize=8)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def plot_hold_creep(series: pd.DataFrame, path: str | os.PathLike, margin_m: float | None = None) -> Path:
+    """The object's lowest point (mm) over the hold, one line per solver variant (`studies.hold_creep` series)."""
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for name, sub in series.groupby("variant", sort=False):
+        ax.plot(sub["t_s"], 1e3 * sub["low_m"], label=name)
+    if margin_m is not None:
+        ax.axhline(1e3 * margin_m, color="k", ls="--", lw=0.8, label="success margin")
+    ax.set_xlabel("time since the hold began (s)")
+    ax.set_ylabel("object's lowest point (mm)")
+    ax.set_title("Hold from one state, per solver variant")
+    ax.legend()
+    fig.tight_layout()
+    return save_figure(fig, path)

@@ -200,3 +200,16 @@ class TrialLog:
         """Append several rows."""
         for row in rows:
             self.append(row)
+
+
+def markdown(frame: pd.DataFrame, digits: int = 3) -> str:
+    """Frame as a markdown table with numbers in %.{digits}g."""
+    def fmt(v: Any) -> str:
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.{digits}g}"
+        return str(v)
+
+    head = "| " + " | ".join(frame.columns) + " |"
+    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
+    body = ["| " + " | ".join(fmt(v) for v in row) + " |" for row in frame.itertuples(index=False)]
+    return "\n".join([head, rule, *body])

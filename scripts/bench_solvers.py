@@ -29,6 +29,9 @@ VARIANTS: dict[str, dict[str, int]] = {
     "cg, 10 iterations": {"solver": mujoco.mjtSolver.mjSOL_CG, "iterations": 10},
     "cg, 100 iterations": {"solver": mujoco.mjtSolver.mjSOL_CG, "iterations": 100},
     "pgs, 30 iterations": {"solver": mujoco.mjtSolver.mjSOL_PGS, "iterations": 30},
+    "pgs, 100 iterations": {"solver": mujoco.mjtSolver.mjSOL_PGS, "iterations": 100},
+    "configured + noslip 10": {"noslip_iterations": 10},
+    "pgs, 30 iterations + noslip 10": {"solver": mujoco.mjtSolver.mjSOL_PGS, "iterations": 30, "noslip_iterations": 10},
     "newton, 5 iterations": {"solver": mujoco.mjtSolver.mjSOL_NEWTON, "iterations": 5},
     "newton, 30 iterations": {"solver": mujoco.mjtSolver.mjSOL_NEWTON, "iterations": 30},
 }
@@ -49,7 +52,7 @@ def main() -> None:
     kind = mujoco.mjtState.mjSTATE_INTEGRATION
     state = np.empty(mujoco.mj_stateSize(model, kind))
     mujoco.mj_getState(model, data, state, kind)
-    configured = {name: getattr(model.opt, name) for name in ("solver", "iterations")}
+    configured = {name: getattr(model.opt, name) for name in ("solver", "iterations", "noslip_iterations")}
     print(f"machine: {platform.machine()} python {platform.python_version()} mujoco {mujoco.__version__}; "
           f"{task} preset {args.preset} seed {args.seed} {' '.join(args.overrides)}")
     print(f"state at t = {physics.time():.3f} s ({env.task.phase(physics)}): nv {model.nv}, {data.ncon} contacts, "

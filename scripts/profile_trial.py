@@ -15,8 +15,7 @@ from pathlib import Path
 
 import mujoco
 
-from entangle_bench.results import atomic_write_csv
-from entangle_bench.studies.accuracy_time import markdown
+from entangle_bench.results import atomic_write_csv, markdown
 from entangle_bench.studies.profile import profile_trial
 from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
 

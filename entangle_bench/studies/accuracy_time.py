@@ -55,7 +55,7 @@ from entangle_bench import resources  # noqa: E402
 from entangle_bench.atomic import atomic_savefig, atomic_write_text  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.presets import PRESETS, Numerics, Preset  # noqa: E402
-from entangle_bench.results import atomic_write_csv  # noqa: E402
+from entangle_bench.results import atomic_write_csv, markdown  # noqa: E402
 from entangle_bench.rods.case import RodCase, centerline_error, load_case  # noqa: E402
 from entangle_bench.rods.comparison import (  # noqa: E402
     cached_result,
@@ -540,19 +540,6 @@ def preset_table(rods: pd.DataFrame, trial: pd.DataFrame) -> pd.DataFrame:
                 row[f"trial {column}"] = float(tri[column].iloc[0]) if len(tri) else np.nan
             rows.append(row)
     return pd.DataFrame(rows)
-
-
-def markdown(frame: pd.DataFrame, digits: int = 3) -> str:
-    """Frame as a markdown table with numbers in %.{digits}g."""
-    def fmt(v: Any) -> str:
-        if isinstance(v, float):
-            return "" if math.isnan(v) else f"{v:.{digits}g}"
-        return str(v)
-
-    head = "| " + " | ".join(frame.columns) + " |"
-    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
-    body = ["| " + " | ".join(fmt(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join([head, rule, *body])
 
 
 # -------------------------------------------------------------------------------------------------- main

@@ -1,0 +1,58 @@
+"""Calibration verdicts: targets (a)–(d) judged on synthetic rows whose answers follow from the definitions."""
+
+import pandas as pd
+import pytest
+
+from entangle_bench import calibration
+from entangle_bench.suites import load_suite
+
+TREE, SPHERE, CYLINDER = calibration.TREE_TASK, *calibration.CONTROL_TASKS
+
+
+def rows(*conditions):
+    """Rows of (task, offset m, successes, failures, unstable) conditions."""
+    out = []
+    for task, offset, k, failures, unstable in conditions:
+        out += [{"task": task, "config.offset_m": offset, "outcome": outcome}
+                for outcome in ["success"] * k + ["failure"] * failures + ["unstable"] * unstable]
+    return pd.DataFrame(out)
+
+
+def pullout(sphere, tree, cylinder):
+    return pd.DataFrame({"config.object_name": ["sphere", "eight_branch_tree", "cylinder_51"],
+                         "toughness_median_j": [sphere, tree, cylinder]})
+
+
+def test_targets_are_met_missed_or_open_by_trial_count_and_intervals():
+    off = calibration.tree_offset_m()
+    met = calibration.target_table(
+        rows((TREE, 0.0, 17, 3, 2), (TREE, off, 15, 5, 0), (SPHERE, 0.0, 2, 18, 0), (CYLINDER, 0.0, 5, 15, 1)),
+        pullout(0.012, 0.30, 1.5))
+    assert met["status"].tolist() == ["met"] * 5
+    assert met["measured"][0] == "17/20 = 85 % [64, 95] (+2 unstable)"  # unstable trials never enter the rate
+    assert "ratios 1.2, 0.79, 1.9" in met["measured"][4]
+    # 20 trials each: 80 % missed by one success; the offset 25 points off; the sphere as good as the tree.
+    missed = calibration.target_table(
+        rows((TREE, 0.0, 15, 5, 0), (TREE, off, 10, 10, 0), (SPHERE, 0.0, 15, 5, 0), (CYLINDER, 0.0, 0, 20, 0)),
+        pullout(0.5, 0.30, 1.5))
+    assert missed["status"].tolist() == ["missed", "missed", "missed", "met", "missed"]  # toughness out of order
+    # Too few trials: open, unless the Wilson intervals already exclude the target.
+    few = calibration.target_table(rows((TREE, 0.0, 3, 3, 0), (TREE, off, 0, 5, 0), (SPHERE, 0.0, 0, 3, 0)))
+    assert few["status"].tolist() == ["open"] * 5
+    excluded = calibration.target_table(rows((TREE, 0.0, 0, 8, 0), (TREE, off, 0, 0, 0)), pullout(0.01, 0.38, 0.2))
+    assert excluded["status"].tolist() == ["missed", "open", "open", "open", "missed"]
+
+
+def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_range():
+    suite = load_suite(calibration.CALIBRATION_SUITE, trials=1)
+    offsets = sorted({spec.config.offset_m for spec in suite.specs if spec.task == TREE})
+    assert offsets == [0.0, pytest.approx(calibration.tree_offset_m(), abs=5e-4)]
+    table = calibration.candidate_parameters(calibration.candidate_overrides()).set_index("parameter")
+    assert table.loc["gripper.filament.outer_radius_m", "inside_physical_range"] == "no"  # aspect ratio 150 < 200
+    assert table.loc["gripper.filament.youngs_modulus_pa", "inside_physical_range"] == "yes"
+    assert table.loc["gripper.filament.youngs_modulus_pa", "value"] != table.loc[
+        "gripper.filament.youngs_modulus_pa", "default"]
+    # The pull-out keeps the gripper and contact settings but has no lift to override.
+    pull = calibration.pullout_overrides(calibration.candidate_overrides())
+    assert any(o.startswith("contact.friction=") for o in pull)
+    assert not any(o.startswith("phases.lift_height_m=") for o in pull)
