@@ -20,8 +20,8 @@ import time
 import mujoco
 import numpy as np
 
+from entangle_bench.studies.branching import SavedTrial, option_variants, run_until
 from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
-from entangle_bench.suite import TASKS
 
 #: Variants: name -> mjOption fields changed from the configuration's own numerics.
 VARIANTS: dict[str, dict[str, int]] = {
@@ -44,15 +44,10 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=300)
     args = parser.parse_args()
     task, config = trial_from_arguments(args)
-    env = TASKS.get(task).make_environment(config, args.seed)
-    time_step, physics = env.reset(), env.physics
-    while physics.time() < args.at and not time_step.last():
-        time_step = env.step(env.task.scripted_action(physics))
+    env, _ = run_until(task, config, args.seed, lambda env: env.physics.time() >= args.at)
+    physics = env.physics
     model, data = physics.model.ptr, physics.data.ptr
-    kind = mujoco.mjtState.mjSTATE_INTEGRATION
-    state = np.empty(mujoco.mj_stateSize(model, kind))
-    mujoco.mj_getState(model, data, state, kind)
-    configured = {name: getattr(model.opt, name) for name in ("solver", "iterations", "noslip_iterations")}
+    saved = SavedTrial.take(env)
     print(f"machine: {platform.machine()} python {platform.python_version()} mujoco {mujoco.__version__}; "
           f"{task} preset {args.preset} seed {args.seed} {' '.join(args.overrides)}")
     print(f"state at t = {physics.time():.3f} s ({env.task.phase(physics)}): nv {model.nv}, {data.ncon} contacts, "
@@ -60,10 +55,8 @@ def main() -> None:
     print("| solver | ms per step | mean iterations | last improvement | deepest contact (mm) | drift (rad) |")
     print("|---|---|---|---|---|---|")
     reference = None
-    for name, changes in VARIANTS.items():
-        for field, value in {**configured, **changes}.items():
-            setattr(model.opt, field, value)
-        mujoco.mj_setState(model, data, state, kind)
+    for name in option_variants(model, VARIANTS):
+        saved.restore(env)
         iterations, deepest = 0, 0.0
         start = time.perf_counter()
         for _ in range(args.steps):

@@ -3,23 +3,21 @@
 MuJoCo's soft contacts have no static friction: under a steady tangential load a contact slides slowly, so
 an object held by friction sinks at a rate set by the solver's regularization (`impratio`, the time
 constant) unless the noslip post-solver removes it. Both functions run one top-drape trial to the start of
-a phase, save the full integration state (and the task's and environment's own state), and continue from it
-once per variant (fields of `mjOption` changed, e.g. `noslip_iterations`), so every variant starts from the
-identical grasp and the variants compare solvers, not seeds:
+a phase, save it (`branching.SavedTrial`) and continue from it once per variant (fields of `mjOption`
+changed, e.g. `noslip_iterations`) with the scripted policy, so every variant starts from the identical grasp
+and the variants compare solvers, not seeds:
 
-- `hold_branches`: the hold, `hold_s` seconds with the hub still and the pressure on: sink rates;
+- `hold_branches`: the hold, `hold_s` seconds (hub still, pressure on): sink rates;
 - `branch_outcomes`: the rest of the trial from `start_phase` (e.g. the lift) with the scripted policy,
   under the watchdog: the task's own outcome and metrics per variant.
 """
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import math
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -28,57 +26,17 @@ import pandas as pd
 from dm_control.rl.control import PhysicsError
 
 from entangle_bench.errors import ParameterError
-from entangle_bench.suite import TASKS
+from entangle_bench.studies.branching import SavedTrial, option_variants, run_until
 from entangle_bench.suite.top_drape import object_tilt_deg
 from entangle_bench.watchdog import Watchdog, WatchdogTripped
 
 
-def _run_to(task: str, config: Any, seed: int, phase: str) -> Any:
-    """The trial's environment stepped with its scripted policy until the first control step of `phase`."""
-    env = TASKS.get(task).make_environment(config, seed)
-    time_step, physics = env.reset(), env.physics
-    while env.task.phase(physics) != phase:
-        if time_step.last():
-            raise ParameterError(f"{task}: the trial ended before its phase {phase!r} began")
-        time_step = env.step(env.task.scripted_action(physics))
-    return env
-
-
-#: Model fields a task changes at run time: the springs' reference pose (the pressure) and contact filters.
-_MODEL_FIELDS = ("qpos_spring", "geom_contype", "geom_conaffinity")
-
-
-@dataclass(frozen=True)
-class _Saved:
-    """Everything a continuation needs: MuJoCo's integration state, the model fields the task changes at run
-    time, the task's attributes and the environment's step count."""
-
-    state: np.ndarray
-    model: dict[str, np.ndarray]
-    task: dict[str, Any]
-    step_count: int
-
-    @classmethod
-    def take(cls, env: Any) -> _Saved:
-        model, data = env.physics.model.ptr, env.physics.data.ptr
-        state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_INTEGRATION))
-        mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        fields = {name: getattr(model, name).copy() for name in _MODEL_FIELDS}
-        return cls(state, fields, copy.deepcopy(vars(env.task)), env._step_count)
-
-    def restore(self, env: Any) -> None:
-        model, data = env.physics.model.ptr, env.physics.data.ptr
-        for name, value in self.model.items():
-            getattr(model, name)[:] = value
-        mujoco.mj_setState(model, data, self.state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        mujoco.mj_forward(model, data)
-        vars(env.task).update(copy.deepcopy(self.task))
-        env._step_count, env._reset_next_step = self.step_count, False
-
-
-def _set_options(model: Any, variants: Mapping[str, Mapping[str, float]]) -> dict[str, Any]:
-    """The configured values of every mjOption field some variant changes."""
-    return {name: getattr(model.opt, name) for changes in variants.values() for name in changes}
+def _branch_point(task: str, config: Any, seed: int, phase: str) -> tuple[Any, SavedTrial]:
+    """The trial's environment at the first control step of `phase`, and its saved state."""
+    env, ended = run_until(task, config, seed, lambda env: env.task.phase(env.physics) == phase)
+    if ended:
+        raise ParameterError(f"{task}: the trial ended before its phase {phase!r} began")
+    return env, SavedTrial.take(env)
 
 
 def hold_branches(
@@ -94,29 +52,25 @@ def hold_branches(
     if hold_s <= 0:
         raise ParameterError(f"hold_s = {hold_s} must be positive")
     config = dataclasses.replace(config, phases=dataclasses.replace(config.phases, hold_time_s=hold_s))
-    env = _run_to(task, config, seed, "hold")
+    env, saved = _branch_point(task, config, seed, "hold")
     physics = env.physics
-    model, data = physics.model.ptr, physics.data.ptr
-    saved, base = _Saved.take(env), _set_options(model, variants)
-    substeps = max(1, round(config.control_timestep_s / model.opt.timestep))
-    physics.hub_velocity = np.zeros(3)
+    data = physics.data.ptr
     rows, series = [], []
-    for name, changes in variants.items():
-        for field, value in {**base, **changes}.items():
-            setattr(model.opt, field, value)
+    for name in option_variants(physics.model.ptr, variants):
         saved.restore(env)
-        start, clock, deepest, below = data.time, time.perf_counter(), 0.0, math.nan
+        start, clock, deepest, below, trace = data.time, time.perf_counter(), 0.0, math.nan, []
         while True:
             low, t = physics.object_lowest_z(), data.time - start
-            series.append((name, t, low, object_tilt_deg(physics.object_pose()[1])))
+            trace.append((t, low, object_tilt_deg(physics.object_pose()[1])))
             if data.ncon:
                 deepest = max(deepest, -float(data.contact.dist[: data.ncon].min()))
             if math.isnan(below) and low < config.success_margin_m:
                 below = t
             if t >= hold_s - 1e-9:
                 break
-            physics.step(substeps)
-        trace = pd.DataFrame([s[1:] for s in series if s[0] == name], columns=["t_s", "low_m", "tilt_deg"])
+            env.step(env.task.scripted_action(physics))
+        series += [(name, *point) for point in trace]
+        trace = pd.DataFrame(trace, columns=["t_s", "low_m", "tilt_deg"])
         late = trace[trace["t_s"] >= hold_s / 2]
         rows.append({
             "variant": name,
@@ -140,14 +94,11 @@ def branch_outcomes(
     branch point with the task's limits; one row per variant: outcome, failure mode (or unstable reason), the
     task's metrics (lift, tilt, support by source...) and wall s.
     """
-    env = _run_to(task, config, seed, start_phase)
+    env, saved = _branch_point(task, config, seed, start_phase)
     physics = env.physics
     model, data = physics.model.ptr, physics.data.ptr
-    saved, base = _Saved.take(env), _set_options(model, variants)
     rows = []
-    for name, changes in variants.items():
-        for field, value in {**base, **changes}.items():
-            setattr(model.opt, field, value)
+    for name in option_variants(model, variants):
         saved.restore(env)
         clock = time.perf_counter()
         watchdog = Watchdog(model, data, env.task.watchdog_limits(), env.task.actuation_energy_j())
