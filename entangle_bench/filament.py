@@ -288,7 +288,8 @@ def add_filament(
     Joints ("ball"): one ball joint per segment, isotropic spring E I / ds (twist too stiff by 1 + nu).
     Joints ("hinges"): three hinges per segment whose axes, at the rest shape, are the material triad at the
     joint's mid-point: the rest mid-tangent (twist, G J / ds), the out-of-plane normal (E I_side / ds) and
-    the curl axis (E I_bend / ds); `rest_hinges` sets axes and rest angles, and actuation rewrites them.
+    the curl axis (E I_bend / ds); `rest_hinges` sets axes and rest angles, and actuation rewrites the angles
+    (`ChainJoints.set_rest_uniform` with `axes_at`).
     Linearized at the rest shape this is exactly the anisotropic rod stiffness; it converges at first order
     in 3D (measured on curl_sideways_gravity: 6.9e-3 L at 16 segments, 2.8e-3 L at 40) against the
     isotropic ball chain's 6.0e-2 L at any resolution. The clamp joint at s = 0 has the half Voronoi length:
@@ -427,6 +428,38 @@ def rest_hinges(darboux: np.ndarray, ds: float, bend_axis: np.ndarray | None = N
     return axes, angles
 
 
+def _hinge_quat(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Quaternion of three hinges about `axes` (3, 3), each in the frame left by the ones before, at `angles`."""
+    quat, step = np.array([1.0, 0.0, 0.0, 0.0]), np.empty(4)
+    for axis, angle in zip(axes, angles):
+        mujoco.mju_axisAngle2Quat(step, axis, float(angle))
+        mujoco.mju_mulQuat(quat, quat.copy(), step)
+    return quat
+
+
+def hinge_rest_angles(axes: np.ndarray, darboux: np.ndarray, ds: float) -> np.ndarray:
+    """Rest angles (2, 3), rad, that make hinges of fixed `axes` (2, 3, 3) (clamp, interior) reproduce `darboux`.
+
+    The rest rotation is exp(portion [Omega]x), portion ds / 2 (clamp) or ds; for a curl about the hinges'
+    own curl axis the angles are (tau portion, 0, kappa portion) exactly, otherwise they are solved.
+    """
+    darboux = np.asarray(darboux, dtype=float)
+    kappa = math.hypot(darboux[1], darboux[2])
+    angles = np.empty((2, 3))
+    for j, portion in enumerate((ds / 2, ds)):
+        target = rest_rotation_quat(darboux, portion)
+
+        def residual(theta: np.ndarray, axes=axes[j], target=target) -> np.ndarray:
+            quat = _hinge_quat(axes, theta)
+            return quat * np.sign(quat @ target) - target
+
+        guess = np.array([darboux[0] * portion, 0.0, kappa * portion])
+        if np.max(np.abs(residual(guess))) > 1e-12:
+            guess = least_squares(residual, guess, xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        angles[j] = guess
+    return angles
+
+
 @dataclass(frozen=True, eq=False)
 class ChainJoints:
     """Compiled joint indices of filaments that share a joint model: writes rest shapes and perturbations."""
@@ -468,12 +501,22 @@ class ChainJoints:
             model.qpos_spring[self.qpos[f, 1:]] = angles[1]
 
     def set_rest_uniform(
-        self, model: mujoco.MjModel, curvature_per_m: float, twist_per_m: float, ds: float, bend_axes: np.ndarray
+        self,
+        model: mujoco.MjModel,
+        curvature_per_m: float,
+        twist_per_m: float,
+        ds: float,
+        bend_axes: np.ndarray,
+        axes_at: tuple[float, float] | None = None,
     ) -> None:
         """Rest shapes of filaments that differ only in their curl axes `bend_axes` (F, 3), unit, normal to x.
 
         Darboux vector tau x + kappa axis (1/m) per filament; the hinges' rest angles are shared and their axes
-        turned about x from one solution (`set_rest` solves every filament).
+        turned about x from one solution (`set_rest` solves every filament). `axes_at` (curvature, twist),
+        1/m, fixes the hinge axes at the material triad of that rest shape and solves only the angles: an
+        actuation that rewrote the axes at every pressure step would move every segment whose hinges are
+        off their rest angles (twisted or bent in contact) without a velocity, a kinematic jump of up to
+        millimetres at the tips per step. Default: the axes of the rest shape itself.
         """
         bend_axes = np.atleast_2d(np.asarray(bend_axes, dtype=float))
         darboux = curvature_per_m * bend_axes
@@ -481,7 +524,12 @@ class ChainJoints:
         if self.joints == "ball":
             self.set_rest(model, darboux, ds, bend_axes)
             return
-        axes, angles = rest_hinges(np.array([twist_per_m, 0.0, curvature_per_m]), ds)
+        shape = np.array([twist_per_m, 0.0, curvature_per_m])
+        if axes_at is None:
+            axes, angles = rest_hinges(shape, ds)
+        else:
+            axes = rest_hinges(np.array([axes_at[1], 0.0, axes_at[0]]), ds)[0]
+            angles = hinge_rest_angles(axes, shape, ds)
         for f, axis in enumerate(bend_axes):
             alpha = math.atan2(-axis[1], axis[2])  # rotation about x taking z onto the curl axis
             cos, sin = math.cos(alpha), math.sin(alpha)

@@ -203,11 +203,21 @@ class Gripper:
         return np.stack([np.zeros_like(psi), np.sin(psi), np.cos(psi)], axis=1)
 
     def set_pressure(self, model: mujoco.MjModel, pressure_pa: float, angles_rad: np.ndarray) -> float:
-        """Write the rest shape for `pressure_pa` into the model (spring references, hinge axes); return kappa, 1/m."""
+        """Write the rest shape for `pressure_pa` into the model (spring references); return kappa, 1/m.
+
+        Hinge axes stay at the material triad of the full-pressure shape (`params.pressure_pa`) at every
+        pressure, so actuation changes only rest angles: exact rest shapes, and the rod's own twist and
+        bending stiffness axes where it grasps.
+        """
         fil = self.params.filament
-        kappa = fil.curvature_per_m(pressure_pa)
+        kappa, full = fil.curvature_per_m(pressure_pa), fil.curvature_per_m(self.params.pressure_pa)
         self.joints.set_rest_uniform(
-            model, kappa, fil.twist_ratio * kappa, fil.segment_length_m, self.bend_axes(angles_rad)
+            model,
+            kappa,
+            fil.twist_ratio * kappa,
+            fil.segment_length_m,
+            self.bend_axes(angles_rad),
+            axes_at=(full, fil.twist_ratio * full),
         )
         return kappa
 

@@ -88,19 +88,51 @@ def test_filament_default_segments_are_the_default_presets():
     assert apply_preset(SceneConfig()) == SceneConfig()  # the defaults are already the default preset
 
 
+def _rest_pose(model: mujoco.MjModel) -> np.ndarray:
+    """Body orientations (nbody, 4) with every joint at its spring reference, sign-fixed quaternions."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos_spring
+    mujoco.mj_kinematics(model, data)
+    return data.xquat * np.sign(data.xquat[:, :1] + 1e-300)
+
+
 @pytest.mark.parametrize("joints", ["hinges", "ball"])
-def test_shared_rest_shape_matches_per_filament_solution(joints):
-    # set_rest_uniform turns one hinge solution about x for every curl axis; it must equal solving each.
+def test_actuated_rest_shape_matches_per_filament_solution(joints):
+    # set_pressure turns one solution about x for every curl axis and keeps the hinge axes at the
+    # full-pressure triad; its rest pose must equal solving each filament's own rest shape (set_rest).
     filament = FilamentParams(n_segments=6, joints=joints, twist_ratio=0.3)
     params = GripperParams(filament=filament, ring_diameters_m=(0.02,), ring_counts=(3,))
     scene = build_scene(SceneConfig(gripper=params))
     model, gripper = scene.model, scene.gripper
     angles = np.array([0.3, 2.0, -1.2])
-    kappa = gripper.set_pressure(model, 100e3, angles)
-    shared = (model.jnt_axis.copy(), model.qpos_spring.copy())
     axes = gripper.bend_axes(angles)
-    darboux = kappa * axes
-    darboux[:, 0] += 0.3 * kappa
-    gripper.joints.set_rest(model, darboux, filament.segment_length_m, axes)
+    for pressure in (100e3, params.pressure_pa):
+        kappa = gripper.set_pressure(model, pressure, angles)
+        shared = (model.jnt_axis.copy(), model.qpos_spring.copy(), _rest_pose(model))
+        darboux = kappa * axes
+        darboux[:, 0] += 0.3 * kappa
+        gripper.joints.set_rest(model, darboux, filament.segment_length_m, axes)
+        np.testing.assert_allclose(shared[2], _rest_pose(model), atol=1e-9)
+    # at full pressure the axes are the rest shape's own material triad
     np.testing.assert_allclose(model.jnt_axis, shared[0], atol=1e-9)
     np.testing.assert_allclose(model.qpos_spring, shared[1], atol=1e-9)
+
+
+def test_actuation_keeps_hinge_axes_fixed():
+    # Rewriting axes while the hinges are off their rest angles would move segments without a velocity.
+    filament = FilamentParams(n_segments=6, joints="hinges")
+    params = GripperParams(filament=filament, ring_diameters_m=(0.02,), ring_counts=(3,))
+    scene = build_scene(SceneConfig(gripper=params))
+    model, gripper = scene.model, scene.gripper
+    angles = np.array([0.3, 2.0, -1.2])
+    gripper.set_pressure(model, 0.0, angles)
+    straight_axes = model.jnt_axis.copy()
+    gripper.set_pressure(model, 80e3, angles)
+    np.testing.assert_array_equal(model.jnt_axis, straight_axes)
+    data = mujoco.MjData(model)
+    data.qpos[:] = np.random.default_rng(0).normal(0.0, 0.2, model.nq)
+    mujoco.mj_kinematics(model, data)
+    before = data.xpos.copy()
+    gripper.set_pressure(model, 160e3, angles)
+    mujoco.mj_kinematics(model, data)
+    np.testing.assert_array_equal(data.xpos, before)
