@@ -165,7 +165,8 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("gripper.pressure_pa", "reference", 172e3, 172e3, "172 kPa"),
     Parameter("gripper.ring_diameters_m", "reference", note="8 on a 50 mm circle, 4 on a 25 mm circle"),
     Parameter("gripper.filament.joints", "numerical",
-              note="ball: twist stiffness EI, 3–28 % of L off out of plane; hinges: within 2 % at 40 segments"),
+              note="ball: twist stiffness EI, 3–28 % of L off out of plane; hinges: within 2 % at 40 segments, "
+                   "tree 2/12 (coils 1.42x softer in stretch)"),
     Parameter("gripper.filament.n_segments", "numerical"),
     Parameter("contact.friction", "physical estimate", 0.5, 2.0, "silicone on plastic 0.5–2"),
     Parameter("contact.timeconst_s", "fitted", note="stiff enough that filaments do not sink"),
