@@ -289,7 +289,7 @@ def add_filament(
     Joints ("hinges"): three hinges per segment whose axes, at the rest shape, are the material triad at the
     joint's mid-point: the rest mid-tangent (twist, G J / ds), the out-of-plane normal (E I_side / ds) and
     the curl axis (E I_bend / ds); `rest_hinges` sets axes and rest angles, and actuation rewrites the angles
-    (`ChainJoints.set_rest_uniform` with `axes_at`).
+    (`ChainJoints.set_rest_uniform` with `axes`).
     Linearized at the rest shape this is exactly the anisotropic rod stiffness; it converges at first order
     in 3D (measured on curl_sideways_gravity: 6.9e-3 L at 16 segments, 2.8e-3 L at 40) against the
     isotropic ball chain's 6.0e-2 L at any resolution. The clamp joint at s = 0 has the half Voronoi length:
@@ -376,20 +376,25 @@ def _quat_inverse(quat: np.ndarray) -> np.ndarray:
     return np.array([quat[0], -quat[1], -quat[2], -quat[3]])
 
 
+def _hinge_quat(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Quaternion of hinges about `axes` (k, 3), each in the frame left by the ones before, at `angles` (k,)."""
+    quat, step = np.array([1.0, 0.0, 0.0, 0.0]), np.empty(4)
+    for axis, angle in zip(axes, angles):
+        mujoco.mju_axisAngle2Quat(step, axis, float(angle))
+        mujoco.mju_mulQuat(quat, quat.copy(), step)
+    return quat
+
+
 def _hinge_chain(triad: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Quaternion of three hinges applied in turn and their axes in the successive joint frames.
 
     `triad` (3, 3) holds the physical axes (parent frame, HINGE_KINDS order) that the hinges must turn about
     at `angles`; each axis is expressed in the frame left by the hinges before it.
     """
-    quat = np.array([1.0, 0.0, 0.0, 0.0])
     axes = np.empty((3, 3))
     for k in range(3):
-        axes[k] = _quat_rotate(_quat_inverse(quat), triad[k])
-        step = np.empty(4)
-        mujoco.mju_axisAngle2Quat(step, axes[k], float(angles[k]))
-        mujoco.mju_mulQuat(quat, quat.copy(), step)
-    return quat, axes
+        axes[k] = _quat_rotate(_quat_inverse(_hinge_quat(axes[:k], angles[:k])), triad[k])
+    return _hinge_quat(axes, angles), axes
 
 
 def rest_hinges(darboux: np.ndarray, ds: float, bend_axis: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
@@ -426,15 +431,6 @@ def rest_hinges(darboux: np.ndarray, ds: float, bend_axis: np.ndarray | None = N
         angles[j] = guess
         axes[j] = _hinge_chain(triad, guess)[1]
     return axes, angles
-
-
-def _hinge_quat(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """Quaternion of three hinges about `axes` (3, 3), each in the frame left by the ones before, at `angles`."""
-    quat, step = np.array([1.0, 0.0, 0.0, 0.0]), np.empty(4)
-    for axis, angle in zip(axes, angles):
-        mujoco.mju_axisAngle2Quat(step, axis, float(angle))
-        mujoco.mju_mulQuat(quat, quat.copy(), step)
-    return quat
 
 
 def hinge_rest_angles(axes: np.ndarray, darboux: np.ndarray, ds: float) -> np.ndarray:
@@ -507,16 +503,16 @@ class ChainJoints:
         twist_per_m: float,
         ds: float,
         bend_axes: np.ndarray,
-        axes_at: tuple[float, float] | None = None,
+        axes: np.ndarray | None = None,
     ) -> None:
         """Rest shapes of filaments that differ only in their curl axes `bend_axes` (F, 3), unit, normal to x.
 
         Darboux vector tau x + kappa axis (1/m) per filament; the hinges' rest angles are shared and their axes
-        turned about x from one solution (`set_rest` solves every filament). `axes_at` (curvature, twist),
-        1/m, fixes the hinge axes at the material triad of that rest shape and solves only the angles: an
-        actuation that rewrote the axes at every pressure step would move every segment whose hinges are
-        off their rest angles (twisted or bent in contact) without a velocity, a kinematic jump of up to
-        millimetres at the tips per step. Default: the axes of the rest shape itself.
+        turned about x from one solution (`set_rest` solves every filament). `axes` (2, 3, 3), the hinge axes
+        (clamp, interior) of a curl about z as `rest_hinges` returns them, fixes the axes and solves only the
+        angles: an actuation that rewrote the axes at every pressure step would move every segment whose
+        hinges are off their rest angles (twisted or bent in contact) without a velocity, a kinematic jump of
+        up to millimetres at the tips per step. Default: the axes of the rest shape itself.
         """
         bend_axes = np.atleast_2d(np.asarray(bend_axes, dtype=float))
         darboux = curvature_per_m * bend_axes
@@ -525,10 +521,9 @@ class ChainJoints:
             self.set_rest(model, darboux, ds, bend_axes)
             return
         shape = np.array([twist_per_m, 0.0, curvature_per_m])
-        if axes_at is None:
+        if axes is None:
             axes, angles = rest_hinges(shape, ds)
         else:
-            axes = rest_hinges(np.array([axes_at[1], 0.0, axes_at[0]]), ds)[0]
             angles = hinge_rest_angles(axes, shape, ds)
         for f, axis in enumerate(bend_axes):
             alpha = math.atan2(-axis[1], axis[2])  # rotation about x taking z onto the curl axis

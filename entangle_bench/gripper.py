@@ -8,6 +8,7 @@ the springs' reference pose `model.qpos_spring`.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -17,7 +18,7 @@ import numpy as np
 
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
-from entangle_bench.filament import ChainJoints, FilamentHandle, FilamentParams, add_filament
+from entangle_bench.filament import ChainJoints, FilamentHandle, FilamentParams, add_filament, rest_hinges
 
 BendingPlaneMode = Literal["random", "radial_out", "radial_in", "tangential", "fixed"]
 
@@ -205,21 +206,28 @@ class Gripper:
     def set_pressure(self, model: mujoco.MjModel, pressure_pa: float, angles_rad: np.ndarray) -> float:
         """Write the rest shape for `pressure_pa` into the model (spring references); return kappa, 1/m.
 
-        Hinge axes stay at the material triad of the full-pressure shape (`params.pressure_pa`) at every
-        pressure, so actuation changes only rest angles: exact rest shapes, and the rod's own twist and
-        bending stiffness axes where it grasps.
+        Hinge axes stay at `hinge_axes` at every pressure, so actuation changes only rest angles: exact rest
+        shapes, and the rod's own twist and bending stiffness axes where it grasps.
         """
         fil = self.params.filament
-        kappa, full = fil.curvature_per_m(pressure_pa), fil.curvature_per_m(self.params.pressure_pa)
+        kappa = fil.curvature_per_m(pressure_pa)
         self.joints.set_rest_uniform(
             model,
             kappa,
             fil.twist_ratio * kappa,
             fil.segment_length_m,
             self.bend_axes(angles_rad),
-            axes_at=(full, fil.twist_ratio * full),
+            axes=self.hinge_axes,
         )
         return kappa
+
+    @functools.cached_property
+    def hinge_axes(self) -> np.ndarray:
+        """(2, 3, 3) hinge axes (clamp, interior) at the material triad of the full-pressure rest shape
+        (`params.pressure_pa`), for a curl about z (`rest_hinges`)."""
+        fil = self.params.filament
+        full = fil.curvature_per_m(self.params.pressure_pa)
+        return rest_hinges(np.array([fil.twist_ratio * full, 0.0, full]), fil.segment_length_m)[0]
 
 
 def add_gripper(

@@ -38,22 +38,19 @@ class ContactDepth:
         model = env.physics.model.ptr
         self._names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)]
 
-    def _kind(self, geom: int) -> str:
-        name = self._names[geom]
-        return "object" if name.startswith("object") else "filament" if "_g" in name else "other"
-
     def step(self, env: Any) -> None:
         physics = env.physics
         model, data = physics.model.ptr, physics.data.ptr
         load = self.phases.setdefault(env.task.phase(physics), _PhaseDepth())
         force = np.zeros(6)
+        kinds = physics.scene.geoms.kinds(data.contact.geom[: data.ncon])
         for i in range(data.ncon):
             contact = data.contact[i]
             depth = -float(contact.dist)
             if depth > load.deepest_m:
                 load.deepest_m = depth
                 load.where = f"{self._names[contact.geom1]} / {self._names[contact.geom2]} at {physics.time():.2f} s"
-            if {self._kind(contact.geom1), self._kind(contact.geom2)} == {"object", "filament"}:
+            if kinds[i] == "filament-object":
                 mujoco.mj_contactForce(model, data, i, force)
                 load.force_n += force[0]
                 if depth > self.deep_m:
