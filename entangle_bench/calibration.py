@@ -20,6 +20,8 @@ from entangle_bench.metrics.pullout import REFERENCE_TOUGHNESS_J
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.objects.registry import object_info
 from entangle_bench.suite import TASKS, resolve_config
+from entangle_bench.suite.pullout import PullSchedule
+from entangle_bench.suite.top_drape import Schedule
 from entangle_bench.suites import suite_path
 
 #: Seeded trials per condition before a success-rate target is judged met or missed on its point estimate.
@@ -209,16 +211,32 @@ def candidate_overrides(suite: str = CALIBRATION_SUITE) -> list[str]:
 
 
 def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tree") -> list[str]:
-    """The overrides that the pull-out task's config has (the gripper, contact, numerics and drape; not the lift)."""
+    """The overrides that the pull-out task's config has (the gripper, contact, numerics and drape; not the lift).
+
+    `numerics.noslip_phases` names top-drape phases: the drape's own are kept, and the phases after the settle
+    (lift, hold, release: the object carried) become the pull-out's (clamp, pull: the object pulled out).
+    """
     config = TASKS.get(task).default_config()
     kept = []
     for override in overrides:
+        path, _, value = override.partition("=")
         try:
-            _lookup(config, override.split("=", 1)[0])
+            _lookup(config, path)
         except AttributeError:
             continue
+        if path == "numerics.noslip_phases":
+            override = f"{path}={','.join(_pullout_phases(value.strip('()[] ').split(',')))}"
         kept.append(override)
     return kept
+
+
+def _pullout_phases(names: list[str]) -> list[str]:
+    """Top-drape phase names as the pull-out's: drape phases kept, the carrying phases -> clamp and pull."""
+    phases = []
+    for name in (n.strip() for n in names if n.strip()):
+        mapped = PullSchedule.AFTER_SETTLE if name in Schedule.AFTER_SETTLE else (name,)
+        phases += [p for p in mapped if p not in phases]
+    return phases
 
 
 def candidate_parameters(overrides: list[str], preset: str | None = None) -> pd.DataFrame:

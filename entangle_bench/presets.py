@@ -15,6 +15,7 @@ from typing import Literal, TypeVar
 import mujoco
 
 from entangle_bench.config import check_choice, check_range
+from entangle_bench.errors import ParameterError
 from entangle_bench.registry import Registry
 
 C = TypeVar("C")
@@ -39,6 +40,9 @@ class Numerics:
     """Ratio of frictional to normal constraint impedance; > 1 reduces creep of soft frictional contacts."""
     noslip_iterations: int = 0
     """Post-processing iterations of MuJoCo's noslip solver that remove frictional creep (0: off)."""
+    noslip_phases: tuple[str, ...] = ()
+    """Task phases in which the noslip solver runs (e.g. lift, hold, release: static friction while the grasp
+    carries the load, at the solver's cost only there); empty: every step. Needs `noslip_iterations` > 0."""
     twist_armature_scale: float = 1000.0
     """Joint armature as a multiple of the segment's spin inertia (statics unchanged; MuJoCo applies it to all
     three DOFs of each ball joint, see `filament.add_filament`)."""
@@ -52,6 +56,10 @@ class Numerics:
         check_range("numerics.ls_iterations", self.ls_iterations, 1, 1000)
         check_range("numerics.impratio", self.impratio, 1.0, 1000.0)
         check_range("numerics.noslip_iterations", self.noslip_iterations, 0, 1000)
+        if self.noslip_phases and not self.noslip_iterations:
+            raise ParameterError(
+                f"numerics.noslip_phases={list(self.noslip_phases)} needs numerics.noslip_iterations > 0 (got 0)"
+            )
         check_range("numerics.twist_armature_scale", self.twist_armature_scale, 1.0, 1e6)
 
     def apply(self, spec: mujoco.MjSpec) -> None:
@@ -74,7 +82,7 @@ class Numerics:
         opt.tolerance = self.tolerance
         opt.ls_iterations = self.ls_iterations
         opt.impratio = self.impratio
-        opt.noslip_iterations = self.noslip_iterations
+        opt.noslip_iterations = 0 if self.noslip_phases else self.noslip_iterations  # tasks switch it per phase
         if not self.euler_implicit_damping:
             opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
 

@@ -27,9 +27,16 @@ class ContactParams:
     timeconst_s: float = 0.02
     """Contact spring time constant (MuJoCo solref[0]); must be at least twice the timestep."""
     dampratio: float = 1.0
+    impedance: tuple[float, float] = (0.9, 0.95)
+    """MuJoCo solimp[0:2]: impedance d at zero penetration and from 1 mm on (MuJoCo's defaults). A contact
+    follows its spring (`timeconst_s`) with weight d and lets 1 - d of the unconstrained acceleration a0
+    through, so a contact pushed with a0 settles at a depth r = (1 - d) a0 (timeconst dampratio)^2 (d = d1)."""
 
     def __post_init__(self) -> None:
         check_range("contact.friction", self.friction, 0.0, 10.0)
+        low, high = self.impedance
+        if not 0.0 < low <= high < 1.0:
+            raise ParameterError(f"contact.impedance = {self.impedance} must satisfy 0 < d0 <= d1 < 1 (MuJoCo solimp)")
         check_range("contact.torsional_friction_m", self.torsional_friction_m, 0.0, 1.0)
         check_range("contact.rolling_friction_m", self.rolling_friction_m, 0.0, 1.0)
         check_range("contact.timeconst_s", self.timeconst_s, 0.0, 1.0, low_open=True)
@@ -133,6 +140,7 @@ def build_scene(
     for geom in spec.geoms:
         geom.friction = (contact.friction, contact.torsional_friction_m, contact.rolling_friction_m)
         geom.solref = (contact.timeconst_s, contact.dampratio)
+        geom.solimp = (*contact.impedance, 0.001, 0.5, 2.0)
     fx.apply_effects(
         spec,
         config.effects,

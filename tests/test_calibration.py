@@ -4,6 +4,7 @@ import pandas as pd
 import pytest
 
 from entangle_bench import calibration
+from entangle_bench.suite import TASKS, resolve_config
 from entangle_bench.suites import load_suite
 
 TREE, SPHERE, CYLINDER = calibration.TREE_TASK, *calibration.CONTROL_TASKS
@@ -56,3 +57,8 @@ def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_ra
     pull = calibration.pullout_overrides(calibration.candidate_overrides())
     assert any(o.startswith("contact.friction=") for o in pull)
     assert not any(o.startswith("phases.lift_height_m=") for o in pull)
+    # Noslip over the top-drape's carrying phases becomes noslip over the pull-out's (its own phase names).
+    pull = calibration.pullout_overrides(["numerics.noslip_iterations=10", "numerics.noslip_phases=settle,lift,hold"])
+    assert pull[1] == "numerics.noslip_phases=settle,clamp,pull"
+    config = resolve_config("pullout_eight_branch_tree", None, pull)
+    TASKS.get("pullout_eight_branch_tree").make_environment(config, 0)  # the phases are the pull-out's own

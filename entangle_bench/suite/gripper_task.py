@@ -20,7 +20,7 @@ from dm_control import mujoco as dm_mujoco
 from dm_env import specs
 
 from entangle_bench import effects as fx
-from entangle_bench.config import check_range
+from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
 from entangle_bench.geoms import KINDS
 from entangle_bench.gripper import GripperParams, bending_angles
@@ -266,6 +266,8 @@ class GripperTask(BenchTask[G]):
 
     def __init__(self, config: G, seed: int):
         super().__init__(config, seed)
+        for name in config.numerics.noslip_phases:
+            check_choice("numerics.noslip_phases", name, self.PHASES)
         self.angles = np.zeros(config.gripper.n_filaments)
         self._pressure_fraction = 0.0
 
@@ -288,7 +290,11 @@ class GripperTask(BenchTask[G]):
         )
 
     def before_step(self, action: np.ndarray, physics: ScenePhysics) -> None:
-        """Set the hub velocity and the shared pressure."""
+        """Set the hub velocity and the shared pressure; run noslip only in `numerics.noslip_phases` (if any)."""
+        numerics = self.config.numerics
+        if numerics.noslip_phases:
+            on = self.phase(physics) in numerics.noslip_phases
+            physics.model.opt.noslip_iterations = numerics.noslip_iterations if on else 0
         action = np.asarray(action, dtype=float)
         physics.hub_velocity[:] = np.clip(action[:3], -MAX_HUB_SPEED_M_S, MAX_HUB_SPEED_M_S)
         fraction = float(np.clip(action[3], 0.0, 1.0))

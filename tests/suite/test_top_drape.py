@@ -105,3 +105,50 @@ def test_short_real_trial_of_default_tree_task(tmp_path):
     assert row["actuated.contacts.object-ground"] > 0  # the tree stands on the ground when actuated
     assert row["config.gripper.filament.n_segments"] == 16
     assert row["config.phases.hold_time_s"] == 0.3 and row["config.object_name"] == "eight_branch_tree"
+
+
+class _NoslipByPhase:
+    """Observer: per control step, the phase it ran in, the noslip iterations it ran with, and qpos after it."""
+
+    def __init__(self):
+        self.steps = []
+
+    def start(self, env):
+        self.phase = env.task.phase(env.physics)
+
+    def step(self, env):
+        physics = env.physics
+        self.steps.append((self.phase, int(physics.model.opt.noslip_iterations), physics.data.qpos.copy()))
+        self.phase = env.task.phase(physics)
+
+    def finish(self, row, complete):
+        pass
+
+
+def test_noslip_runs_only_in_its_phases_and_leaves_the_rest_of_the_trial_unchanged():
+    """With noslip_phases = lift, hold the trajectory is bit-identical to the plain trial up to the lift (noslip
+    is off), and differs from the lift on (the noslip solver acts on the contacts carrying the object)."""
+    base = [*SHORT_SEQUENCE, "numerics.timestep_s=1e-3"]
+    runs = {}
+    for name, extra in (("plain", []), ("lift_hold", ["numerics.noslip_iterations=10",
+                                                     "numerics.noslip_phases=lift,hold"])):
+        probe = _NoslipByPhase()
+        simulate("eight_branch_tree", resolve_config("eight_branch_tree", "fast", [*base, *extra]), 0,
+                 observers=[probe])
+        runs[name] = probe.steps
+    plain, switched = runs["plain"], runs["lift_hold"]
+    assert [p for p, _, _ in plain] == [p for p, _, _ in switched]
+    assert {p for p, n, _ in switched if n} == {"lift", "hold"}
+    assert {p for p, n, _ in switched if not n} == {"approach", "actuate", "settle", "release"}
+    first_lift = next(i for i, (p, _, _) in enumerate(switched) if p == "lift")
+    for (_, _, q_plain), (_, _, q_switched) in zip(plain[:first_lift], switched[:first_lift]):
+        np.testing.assert_array_equal(q_plain, q_switched)
+    assert np.abs(plain[-1][2] - switched[-1][2]).max() > 1e-9
+
+
+def test_noslip_phases_must_name_task_phases_and_need_iterations():
+    with pytest.raises(ParameterError, match="noslip_iterations > 0"):
+        resolve_config("eight_branch_tree", None, ["numerics.noslip_phases=lift"])
+    config = resolve_config("eight_branch_tree", None, ["numerics.noslip_iterations=5", "numerics.noslip_phases=lfit"])
+    with pytest.raises(ParameterError, match=r"noslip_phases = 'lfit'.*'lift', 'hold'"):
+        TASKS.get("eight_branch_tree").make_environment(config, 0)
