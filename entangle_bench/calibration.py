@@ -16,6 +16,7 @@ from typing import Any
 
 import pandas as pd
 
+from entangle_bench.config import coerce_text
 from entangle_bench.metrics.pullout import REFERENCE_TOUGHNESS_J
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.objects.registry import object_info
@@ -225,15 +226,15 @@ def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tr
         except AttributeError:
             continue
         if path == "numerics.noslip_phases":
-            override = f"{path}={','.join(_pullout_phases(value.strip('()[] ').split(',')))}"
+            override = f"{path}={','.join(_pullout_phases(coerce_text(value, tuple[str, ...], path)))}"
         kept.append(override)
     return kept
 
 
-def _pullout_phases(names: list[str]) -> list[str]:
+def _pullout_phases(names: tuple[str, ...]) -> list[str]:
     """Top-drape phase names as the pull-out's: drape phases kept, the carrying phases -> clamp and pull."""
     phases = []
-    for name in (n.strip() for n in names if n.strip()):
+    for name in names:
         mapped = PullSchedule.AFTER_SETTLE if name in Schedule.AFTER_SETTLE else (name,)
         phases += [p for p in mapped if p not in phases]
     return phases

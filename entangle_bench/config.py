@@ -41,7 +41,7 @@ def check_choice(name: str, value: Any, allowed: typing.Iterable[Any]) -> None:
         raise ParameterError(f"{name} = {value!r} is not allowed; choose one of {allowed}")
 
 
-def _coerce(text: str, annotation: Any, path: str) -> Any:
+def coerce_text(text: str, annotation: Any, path: str) -> Any:
     """Convert command-line text to the type named by a dataclass field annotation."""
     origin = typing.get_origin(annotation)
     args = typing.get_args(annotation)
@@ -53,7 +53,7 @@ def _coerce(text: str, annotation: Any, path: str) -> Any:
             if arg is type(None):
                 continue
             try:
-                return _coerce(text, arg, path)
+                return coerce_text(text, arg, path)
             except ParameterError as exc:
                 errors.append(str(exc))
         raise ParameterError("; ".join(errors))
@@ -65,10 +65,10 @@ def _coerce(text: str, annotation: Any, path: str) -> Any:
     if origin is tuple:
         items = [t for t in text.strip("()[] ").split(",") if t.strip()]
         if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_coerce(t.strip(), args[0], path) for t in items)
+            return tuple(coerce_text(t.strip(), args[0], path) for t in items)
         if len(items) != len(args):
             raise ParameterError(f"{path}: expected {len(args)} comma-separated values, got {text!r}")
-        return tuple(_coerce(t.strip(), a, path) for t, a in zip(items, args))
+        return tuple(coerce_text(t.strip(), a, path) for t, a in zip(items, args))
     if annotation is bool:
         lowered = text.lower()
         if lowered in ("1", "true", "yes", "on"):
@@ -103,7 +103,7 @@ def replace_path(config: Any, path: str, value: Any) -> Any:
     if rest:
         new = replace_path(getattr(config, head), rest, value)
     elif isinstance(value, str) and hints[head] is not str:
-        new = _coerce(value, hints[head], head)
+        new = coerce_text(value, hints[head], head)
     else:
         new = value
     return dataclasses.replace(config, **{head: new})
@@ -146,7 +146,7 @@ def _replace_tree(config: Any, tree: dict[str, Any], prefix: str) -> Any:
         if isinstance(value, dict):
             changes[name] = _replace_tree(getattr(config, name), value, f"{prefix}{name}.")
         elif hints[name] is not str:
-            changes[name] = _coerce(value, hints[name], f"{prefix}{name}")
+            changes[name] = coerce_text(value, hints[name], f"{prefix}{name}")
         else:
             changes[name] = value
     return dataclasses.replace(config, **changes)

@@ -34,13 +34,13 @@ class ContactParams:
 
     def __post_init__(self) -> None:
         check_range("contact.friction", self.friction, 0.0, 10.0)
-        low, high = self.impedance
-        if not 0.0 < low <= high < 1.0:
-            raise ParameterError(f"contact.impedance = {self.impedance} must satisfy 0 < d0 <= d1 < 1 (MuJoCo solimp)")
         check_range("contact.torsional_friction_m", self.torsional_friction_m, 0.0, 1.0)
         check_range("contact.rolling_friction_m", self.rolling_friction_m, 0.0, 1.0)
         check_range("contact.timeconst_s", self.timeconst_s, 0.0, 1.0, low_open=True)
         check_range("contact.dampratio", self.dampratio, 0.0, 10.0, low_open=True)
+        low, high = self.impedance
+        if not 0.0 < low <= high < 1.0:
+            raise ParameterError(f"contact.impedance = {self.impedance} must satisfy 0 < d0 <= d1 < 1 (MuJoCo solimp)")
 
 
 @dataclass(frozen=True)
