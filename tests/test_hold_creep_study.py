@@ -42,3 +42,16 @@ def test_a_branch_from_the_lift_reproduces_the_uninterrupted_trial(short_spec):
         assert (row["outcome"], row["failure_mode"]) == (whole["outcome"], whole["failure_mode"])
         for column in ("lift_height_m", "max_hold_tilt_deg", "peak_lift_force_w", "support.ground_w"):
             assert row[column] == whole[column], column
+
+
+def test_noslip_variants_are_refused_when_the_task_switches_noslip_per_phase(short_spec):
+    from entangle_bench.errors import ParameterError
+    from entangle_bench.studies.hold_creep import branch_outcomes
+
+    spec = short_spec(extra=("numerics.noslip_iterations=10", "numerics.noslip_phases=hold"))
+    config = spec.config
+    # The task would overwrite the variant's noslip at every step: refused before anything simulates.
+    with pytest.raises(ParameterError, match="noslip_phases"):
+        hold_branches(spec.task, config, spec.seed, {"noslip": {"noslip_iterations": 5}}, hold_s=0.2)
+    with pytest.raises(ParameterError, match="'noslip'.*noslip_phases"):
+        branch_outcomes(spec.task, config, spec.seed, {"noslip": {"noslip_iterations": 5}})

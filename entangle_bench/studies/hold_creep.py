@@ -31,6 +31,17 @@ from entangle_bench.suite.top_drape import object_tilt_deg
 from entangle_bench.watchdog import Watchdog, WatchdogTripped
 
 
+def _check_variants(config: Any, variants: Mapping[str, Mapping[str, float]]) -> None:
+    """Refuse variants that set `noslip_iterations` on a config whose task switches it per phase."""
+    phases = config.numerics.noslip_phases
+    for name, changes in variants.items():
+        if phases and "noslip_iterations" in changes:
+            raise ParameterError(
+                f"variant {name!r} sets noslip_iterations, but numerics.noslip_phases={list(phases)} makes the task "
+                "set it at every step; drop numerics.noslip_phases (and numerics.noslip_iterations) from the config"
+            )
+
+
 def _branch_point(task: str, config: Any, seed: int, phase: str) -> tuple[Any, SavedTrial]:
     """The trial's environment at the first control step of `phase`, and its saved state."""
     env, ended = run_until(task, config, seed, lambda env: env.task.phase(env.physics) == phase)
@@ -51,6 +62,7 @@ def hold_branches(
     """
     if hold_s <= 0:
         raise ParameterError(f"hold_s = {hold_s} must be positive")
+    _check_variants(config, variants)
     config = dataclasses.replace(config, phases=dataclasses.replace(config.phases, hold_time_s=hold_s))
     env, saved = _branch_point(task, config, seed, "hold")
     physics = env.physics
@@ -94,6 +106,7 @@ def branch_outcomes(
     branch point with the task's limits; one row per variant: outcome, failure mode (or unstable reason), the
     task's metrics (lift, tilt, support by source...) and wall s.
     """
+    _check_variants(config, variants)
     env, saved = _branch_point(task, config, seed, start_phase)
     physics = env.physics
     model, data = physics.model.ptr, physics.data.ptr
