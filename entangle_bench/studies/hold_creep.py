@@ -34,8 +34,10 @@ from entangle_bench.watchdog import Watchdog, WatchdogTripped
 def _check_variants(config: Any, variants: Mapping[str, Mapping[str, float]]) -> None:
     """Refuse variants that set `noslip_iterations` on a config whose task switches it per phase."""
     phases = config.numerics.noslip_phases
+    if not phases:
+        return
     for name, changes in variants.items():
-        if phases and "noslip_iterations" in changes:
+        if "noslip_iterations" in changes:
             raise ParameterError(
                 f"variant {name!r} sets noslip_iterations, but numerics.noslip_phases={list(phases)} makes the task "
                 "set it at every step; drop numerics.noslip_phases (and numerics.noslip_iterations) from the config"
