@@ -130,8 +130,8 @@ def load_suite(
     """Read a suite file (registered name or path) into its trial specs, with command-line settings on top.
 
     `trials`, `preset` and `seed` replace the file's values; `overrides` (`a.b=value`) apply to every condition
-    after the suite's `set` and its own; `offsets` (m) replace the `offset_m` sweep axis (or add one). An override of a swept
-    parameter is refused: the sweep would replace it.
+    after the suite's `set` and its own; `offsets` (m) replace the `offset_m` sweep axis (or add one). An
+    override of a swept parameter is refused: the sweep would replace it.
     """
     path = suite_path(name)
     try:
