@@ -277,13 +277,15 @@ def add_filament(
     quat: tuple[float, float, float, float],
     twist_armature_scale: float = 1.0,
     rgba: tuple[float, float, float, float] = (0.2, 0.5, 0.9, 1.0),
+    bending_armature: bool = True,
 ) -> FilamentHandle:
     """Add one clamped filament as a child chain of `parent`; `pos`/`quat` place the clamp frame (x = tangent).
 
     `twist_armature_scale` adds joint armature equal to (scale - 1) times the segment's own spin inertia to
-    every rotational DOF. It targets torsional waves (the fastest mode of a thin rod) and so allows a larger
-    timestep without changing any static equilibrium; it slows the fastest bending dynamics too (measured in
-    the accuracy-time study: swing error 0.30 L at x1 vs 0.43 L at x1000).
+    every rotational DOF (with `bending_armature` False and hinges: to the twist hinge only). It targets
+    torsional waves (the fastest mode of a thin rod) and so allows a larger timestep without changing any
+    static equilibrium; on the bending DOFs it slows the fastest bending dynamics too (measured in the
+    accuracy-time study: swing error 0.30 L at x1 vs 0.43 L at x1000).
 
     Joints ("ball"): one ball joint per segment, isotropic spring E I / ds (twist too stiff by 1 + nu).
     Joints ("hinges"): three hinges per segment whose axes, at the rest shape, are the material triad at the
@@ -296,6 +298,8 @@ def add_filament(
     twice the stiffness and half the rest rotation, which makes the clamp second-order accurate.
     """
     check_range("twist_armature_scale", twist_armature_scale, 1.0, 1e6)
+    if not bending_armature and params.joints != "hinges":
+        raise ParameterError(f"bending_armature = False needs hinges, not {params.joints!r} joints")
     n, ds = params.n_segments, params.segment_length_m
     r_out, r_in = params.outer_radius_m, params.channel_radius_m
     m = params.linear_density_kg_m * ds
@@ -339,7 +343,7 @@ def add_filament(
                     axis=tuple(axis),
                     stiffness=stiffness,
                     damping=stiffness * params.damping_time_s,
-                    armature=armature,
+                    armature=armature if bending_armature or kind == "twist" else 0.0,
                 )
             joints.append(tuple(hinge_name(index, j, kind) for kind in HINGE_KINDS))
         body.add_geom(
