@@ -79,6 +79,10 @@ class FilamentParams:
     twist_ratio: float = 0.0
     """Rest twist per unit rest curvature, tau / kappa: 0 curls in a plane; > 0 coils into a helix of radius
     kappa / (kappa^2 + tau^2) and pitch 2 pi tau / (kappa^2 + tau^2) that can wind past itself."""
+    stretch_at_clamp: bool = False
+    """Lump the filament's axial compliance L / (E A) into a slide joint at the clamp (stiffness E A / L, N/m,
+    Kelvin-Voigt damping): its tension then stays what its stretch allows, as a silicone tube's does, instead of
+    whatever a kinematic hub demands of an inextensible chain caught on an object."""
     joints: JointModel = "ball"
     """How each segment joins its parent: "hinges" (twist, out-of-plane and in-plane bending hinges with
     stiffness GJ, E I_side and E I_bend per segment length: right in 3D) or "ball" (one ball joint with an
@@ -121,6 +125,11 @@ class FilamentParams:
     def channel_offset_m(self) -> float:
         """Distance from the tube axis to the channel axis, m."""
         return self.channel_eccentricity * (1.0 - self.channel_radius_ratio) * self.outer_radius_m
+
+    @property
+    def axial_stiffness_n_m(self) -> float:
+        """Stiffness of the whole filament in stretch, E A / L, N/m."""
+        return self.youngs_modulus_pa * self.area_m2 / self.length_m
 
     @property
     def area_m2(self) -> float:
@@ -264,6 +273,11 @@ def joint_name(index: int, segment: int) -> str:
     return f"f{index:02d}_j{segment:03d}"
 
 
+def stretch_name(index: int) -> str:
+    """Name of the slide joint at the clamp of filament `index` (`FilamentParams.stretch_at_clamp`)."""
+    return f"f{index:02d}_stretch"
+
+
 def hinge_name(index: int, segment: int, kind: str) -> str:
     """Name of the `kind` hinge (one of HINGE_KINDS) at the root of segment `segment` of filament `index`."""
     return f"f{index:02d}_j{segment:03d}_{kind}"
@@ -324,6 +338,10 @@ def add_filament(
             explicitinertial=True,
         )
         scale = 2.0 if j == 0 else 1.0
+        if j == 0 and params.stretch_at_clamp:
+            k = params.axial_stiffness_n_m
+            body.add_joint(name=stretch_name(index), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=(1.0, 0.0, 0.0),
+                           stiffness=k, damping=k * params.damping_time_s)
         if params.joints == "ball":
             stiffness = scale * params.bending_stiffness_nm2 / ds
             body.add_joint(
