@@ -79,6 +79,10 @@ class FilamentParams:
     twist_ratio: float = 0.0
     """Rest twist per unit rest curvature, tau / kappa: 0 curls in a plane; > 0 coils into a helix of radius
     kappa / (kappa^2 + tau^2) and pitch 2 pi tau / (kappa^2 + tau^2) that can wind past itself."""
+    stretch_at_clamp: bool = False
+    """Lump the filament's axial compliance L / (E A) into a slide joint at the clamp (stiffness E A / L, N/m,
+    Kelvin-Voigt damping): its tension then stays what its stretch allows, as a silicone tube's does, instead of
+    whatever a kinematic hub demands of an inextensible chain caught on an object."""
     joints: JointModel = "ball"
     """How each segment joins its parent: "hinges" (twist, out-of-plane and in-plane bending hinges with
     stiffness GJ, E I_side and E I_bend per segment length: right in 3D) or "ball" (one ball joint with an
@@ -121,6 +125,11 @@ class FilamentParams:
     def channel_offset_m(self) -> float:
         """Distance from the tube axis to the channel axis, m."""
         return self.channel_eccentricity * (1.0 - self.channel_radius_ratio) * self.outer_radius_m
+
+    @property
+    def axial_stiffness_n_m(self) -> float:
+        """Stiffness of the whole filament in stretch, E A / L, N/m."""
+        return self.youngs_modulus_pa * self.area_m2 / self.length_m
 
     @property
     def area_m2(self) -> float:
@@ -264,6 +273,11 @@ def joint_name(index: int, segment: int) -> str:
     return f"f{index:02d}_j{segment:03d}"
 
 
+def stretch_name(index: int) -> str:
+    """Name of the slide joint at the clamp of filament `index` (`FilamentParams.stretch_at_clamp`)."""
+    return f"f{index:02d}_stretch"
+
+
 def hinge_name(index: int, segment: int, kind: str) -> str:
     """Name of the `kind` hinge (one of HINGE_KINDS) at the root of segment `segment` of filament `index`."""
     return f"f{index:02d}_j{segment:03d}_{kind}"
@@ -277,13 +291,15 @@ def add_filament(
     quat: tuple[float, float, float, float],
     twist_armature_scale: float = 1.0,
     rgba: tuple[float, float, float, float] = (0.2, 0.5, 0.9, 1.0),
+    bending_armature: bool = True,
 ) -> FilamentHandle:
     """Add one clamped filament as a child chain of `parent`; `pos`/`quat` place the clamp frame (x = tangent).
 
     `twist_armature_scale` adds joint armature equal to (scale - 1) times the segment's own spin inertia to
-    every rotational DOF. It targets torsional waves (the fastest mode of a thin rod) and so allows a larger
-    timestep without changing any static equilibrium; it slows the fastest bending dynamics too (measured in
-    the accuracy-time study: swing error 0.30 L at x1 vs 0.43 L at x1000).
+    every rotational DOF (with `bending_armature` False and hinges: to the twist hinge only). It targets
+    torsional waves (the fastest mode of a thin rod) and so allows a larger timestep without changing any
+    static equilibrium; on the bending DOFs it slows the fastest bending dynamics too (measured in the
+    accuracy-time study: swing error 0.30 L at x1 vs 0.43 L at x1000).
 
     Joints ("ball"): one ball joint per segment, isotropic spring E I / ds (twist too stiff by 1 + nu).
     Joints ("hinges"): three hinges per segment whose axes, at the rest shape, are the material triad at the
@@ -296,6 +312,8 @@ def add_filament(
     twice the stiffness and half the rest rotation, which makes the clamp second-order accurate.
     """
     check_range("twist_armature_scale", twist_armature_scale, 1.0, 1e6)
+    if not bending_armature and params.joints != "hinges":
+        raise ParameterError(f"bending_armature = False needs hinges, not {params.joints!r} joints")
     n, ds = params.n_segments, params.segment_length_m
     r_out, r_in = params.outer_radius_m, params.channel_radius_m
     m = params.linear_density_kg_m * ds
@@ -320,6 +338,10 @@ def add_filament(
             explicitinertial=True,
         )
         scale = 2.0 if j == 0 else 1.0
+        if j == 0 and params.stretch_at_clamp:
+            k = params.axial_stiffness_n_m
+            body.add_joint(name=stretch_name(index), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=(1.0, 0.0, 0.0),
+                           stiffness=k, damping=k * params.damping_time_s)
         if params.joints == "ball":
             stiffness = scale * params.bending_stiffness_nm2 / ds
             body.add_joint(
@@ -339,7 +361,7 @@ def add_filament(
                     axis=tuple(axis),
                     stiffness=stiffness,
                     damping=stiffness * params.damping_time_s,
-                    armature=armature,
+                    armature=armature if bending_armature or kind == "twist" else 0.0,
                 )
             joints.append(tuple(hinge_name(index, j, kind) for kind in HINGE_KINDS))
         body.add_geom(

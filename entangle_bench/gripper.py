@@ -235,8 +235,10 @@ def add_gripper(
     params: GripperParams,
     hub_pos: tuple[float, float, float] = (0.0, 0.0, 0.5),
     twist_armature_scale: float = 1.0,
+    bending_armature: bool = True,
 ) -> Gripper:
-    """Add the hub (mocap body named 'hub') and its hanging filaments to `spec.worldbody`."""
+    """Add the hub (mocap body named 'hub') and its hanging filaments to `spec.worldbody` (armature: see
+    `filament.add_filament`)."""
     hub = spec.worldbody.add_body(name="hub", pos=hub_pos, mocap=True)
     hub.add_geom(
         name="hub_disk",
@@ -257,6 +259,7 @@ def add_gripper(
                 pos=(float(x), float(y), 0.0),
                 quat=HANGING_CLAMP_QUAT,
                 twist_armature_scale=twist_armature_scale,
+                bending_armature=bending_armature,
             )
         )
     return Gripper(params, handles)

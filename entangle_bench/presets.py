@@ -46,6 +46,10 @@ class Numerics:
     twist_armature_scale: float = 1000.0
     """Joint armature as a multiple of the segment's spin inertia (statics unchanged; MuJoCo applies it to all
     three DOFs of each ball joint, see `filament.add_filament`)."""
+    bending_armature: bool = True
+    """Put the twist armature on the bending DOFs too. A ball joint always does (MuJoCo gives it one armature
+    for its three DOFs); with `gripper.filament.joints = hinges`, False leaves the bending hinges at the rod's
+    own inertia, so the armature slows only the torsional waves it is meant for."""
 
     def __post_init__(self) -> None:
         check_range("numerics.timestep_s", self.timestep_s, 1e-6, 0.02)
@@ -61,6 +65,14 @@ class Numerics:
                 f"numerics.noslip_phases={list(self.noslip_phases)} needs numerics.noslip_iterations > 0 (got 0)"
             )
         check_range("numerics.twist_armature_scale", self.twist_armature_scale, 1.0, 1e6)
+
+    def check_joints(self, joints: str) -> None:
+        """Raise ParameterError if these numerics cannot be built with the filament joint model `joints`."""
+        if not self.bending_armature and joints != "hinges":
+            raise ParameterError(
+                f"numerics.bending_armature = false needs gripper.filament.joints = 'hinges', got {joints!r}: "
+                "MuJoCo gives a ball joint one armature for all three DOFs"
+            )
 
     def apply(self, spec: mujoco.MjSpec) -> None:
         """Write timestep, integrator and solver settings into `spec.option`."""

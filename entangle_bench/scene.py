@@ -60,6 +60,7 @@ class SceneConfig:
 
     def __post_init__(self) -> None:
         check_choice("object_weld", self.object_weld, ("none", "world", "hub"))
+        self.numerics.check_joints(self.gripper.filament.joints)
         if self.object_weld != "none" and self.object_name is None:
             raise ParameterError(f"object_weld = {self.object_weld!r} needs an object; the scene has none")
 
@@ -112,7 +113,8 @@ def build_scene(
         name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(1.0, 1.0, 0.01), rgba=(0.8, 0.8, 0.8, 1)
     )
     gripper = add_gripper(
-        spec, config.gripper, hub_pos, twist_armature_scale=config.numerics.twist_armature_scale
+        spec, config.gripper, hub_pos, twist_armature_scale=config.numerics.twist_armature_scale,
+        bending_armature=config.numerics.bending_armature,
     )
     info = None
     if config.object_name is not None:

@@ -6,11 +6,12 @@ A suite file holds:
     trials = 10            # seeded trials per condition (seeds seed, seed+1, ...)
     preset = "balanced"    # numerical preset (optional; default presets.DEFAULT_PRESET)
     seed = 0               # first seed (optional)
+    set = { "contact.friction" = 2.0 }     # optional overrides of every condition (dotted config paths)
 
     [[conditions]]         # one or more
     task = "eight_branch_tree"
     label = "tree"         # optional
-    set = { "phases.hold_time_s" = 2.0 }   # optional overrides (dotted config paths)
+    set = { "phases.hold_time_s" = 2.0 }   # optional overrides of this condition, after the suite's `set`
 
     [sweep]                # optional: every condition is crossed with the product of these axes
     offset_m = [0.0, 0.01, 0.02]
@@ -38,7 +39,7 @@ from entangle_bench.runner import TrialSpec
 from entangle_bench.suite import TASKS, resolve_config
 
 SUITE_DIR = resources.tasks_dir()
-TOP_KEYS = {"description", "trials", "preset", "seed", "conditions", "sweep"}
+TOP_KEYS = {"description", "trials", "preset", "seed", "set", "conditions", "sweep"}
 CONDITION_KEYS = {"task", "label", "set"}
 
 #: Suite files of `tasks/` by name (the file stem).
@@ -105,6 +106,18 @@ def _expand(
     return specs
 
 
+def _apply_table(path: Path, where: str, settings: object, config: Any, context: str = "") -> Any:
+    """`config` with a suite file's `set` table (dotted.path = value) applied; errors name the file and key."""
+    if not isinstance(settings, dict):
+        raise _fail(path, where, "must be a table of dotted.path = value")
+    for key, value in settings.items():
+        try:
+            config = replace_path(config, key, _value(value))
+        except (EntangleBenchError, TypeError) as exc:
+            raise _fail(path, f"{where}.{key}", f"{exc}{context}") from None
+    return config
+
+
 def load_suite(
     name: str,
     trials: int | None = None,
@@ -117,8 +130,8 @@ def load_suite(
     """Read a suite file (registered name or path) into its trial specs, with command-line settings on top.
 
     `trials`, `preset` and `seed` replace the file's values; `overrides` (`a.b=value`) apply to every condition
-    after its own `set`; `offsets` (m) replace the `offset_m` sweep axis (or add one). An override of a swept
-    parameter is refused: the sweep would replace it.
+    after the suite's `set` and its own; `offsets` (m) replace the `offset_m` sweep axis (or add one). An
+    override of a swept parameter is refused: the sweep would replace it.
     """
     path = suite_path(name)
     try:
@@ -154,6 +167,7 @@ def load_suite(
             raise ParameterError(f"--set {key}: suite {path.stem!r} sweeps {key} over {sweep[key]}, which would "
                                  "replace the value" + ("; use --offsets to change the offsets" if key == "offset_m"
                                                         else ""))
+    shared = data.get("set", {})
     specs = []
     for n, cond in enumerate(conditions):
         where = f"conditions[{n}]"
@@ -166,15 +180,9 @@ def load_suite(
             task = TASKS.entry(cond["task"]).value.name
         except UnknownNameError as exc:
             raise _fail(path, f"{where}.task", str(exc)) from None
-        settings = cond.get("set", {})
-        if not isinstance(settings, dict):
-            raise _fail(path, f"{where}.set", "must be a table of dotted.path = value")
         base = resolve_config(task, preset)
-        for key, value in settings.items():
-            try:
-                base = replace_path(base, key, _value(value))
-            except (EntangleBenchError, TypeError) as exc:
-                raise _fail(path, f"{where}.set.{key}", str(exc)) from None
+        base = _apply_table(path, "set", shared, base, f" (condition {where}, task {task})")
+        base = _apply_table(path, f"{where}.set", cond.get("set", {}), base)
         try:
             base = apply_overrides(base, overrides)
         except (EntangleBenchError, TypeError) as exc:

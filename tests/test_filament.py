@@ -47,6 +47,23 @@ def test_actuated_coil_radius_matches_curvature(single_filament_scene):
     assert fit_circle_xz(line) * kappa == pytest.approx(1.0, abs=0.02)
 
 
+@pytest.mark.parametrize("joints", ["ball", "hinges"])
+def test_stretch_at_clamp_carries_the_hanging_weight_by_hookes_law(single_filament_scene, joints):
+    # The slide joint at the clamp holds the whole filament: extension W / (E A / L) at rest, and the
+    # clamp's tension is then bounded by the stretch (E A / L), not by what a kinematic hub demands.
+    scene = single_filament_scene(effects=fx.Effects(gravity=True, filament_self_contact=False,
+                                                     filament_filament_contact=False, ground_contact=False,
+                                                     filament_object_contact=False),
+                                  stretch_at_clamp=True, joints=joints, youngs_modulus_pa=0.05e6)
+    params = scene.config.gripper.filament
+    straight = settled_centerline(scene, gravity=(0.0, 0.0, 0.0))
+    hanging = settled_centerline(scene, gravity=(0.0, 0.0, -9.81))
+    expected = params.mass_kg * 9.81 / params.axial_stiffness_n_m  # 2x a continuous rod's rho g L^2 / (2 E)
+    assert expected > 1e-3  # a soft filament, so the stretch is well above the solver's tolerance
+    assert straight[0, 2] - hanging[0, 2] == pytest.approx(expected, rel=0.01)  # the clamp end moved down
+    assert np.linalg.norm(np.diff(hanging, axis=0), axis=1).sum() == pytest.approx(params.length_m, rel=1e-9)
+
+
 def test_stiff_cantilever_matches_small_deflection_formula(single_filament_scene):
     """Sideways gravity on a stiff clamped rod: tip drop rho A g L^4 / (8 EI) within 5 %."""
     scene = single_filament_scene(effects=fx.NO_CONTACT, n_segments=20, youngs_modulus_pa=2e10)

@@ -89,6 +89,22 @@ def test_suite_errors_name_file_key_and_problem(tmp_path):
         load_suite("no_such_suite")
 
 
+def test_suite_set_applies_to_every_condition_before_its_own(tmp_path):
+    path = tmp_path / "shared.toml"
+    path.write_text('[set]\n"contact.friction" = 1.5\n"phases.hold_time_s" = 3.0\n'
+                    '[[conditions]]\ntask = "sphere"\n'
+                    '[[conditions]]\ntask = "cylinder_38"\nset = { "contact.friction" = 0.5 }\n')
+    sphere, cylinder = (s.config for s in load_suite(str(path)).specs)
+    assert (sphere.contact.friction, sphere.phases.hold_time_s) == (1.5, 3.0)
+    assert (cylinder.contact.friction, cylinder.phases.hold_time_s) == (0.5, 3.0)
+    path.write_text('[set]\n"contact.frictio" = 1.5\n[[conditions]]\ntask = "sphere"\n')
+    with pytest.raises(FileFormatError, match=r"shared.toml.*'set.contact.frictio'.*condition conditions\[0\]"):
+        load_suite(str(path))
+    path.write_text('set = 3\n[[conditions]]\ntask = "sphere"\n')
+    with pytest.raises(FileFormatError, match=r"'set'.*must be a table"):
+        load_suite(str(path))
+
+
 def test_shipped_suites_load():
     assert SUITES.names() == [
         "branch_length", "calibration", "default", "grasp_probe", "objects", "offsets", "pullout", "spacing",

@@ -86,6 +86,7 @@ def build_rod(
         pos=case.base_position,
         quat=tuple(quat),
         twist_armature_scale=numerics.twist_armature_scale,
+        bending_armature=numerics.bending_armature,
     )
     apply_effects(spec, NO_CONTACT, {}, [list(handle.body_names)], np.zeros((1, 2)), case.length)
     model = spec.compile()

@@ -55,6 +55,7 @@ class GripperTaskConfig:
     def __post_init__(self) -> None:
         check_range("perturbation_rad", self.perturbation_rad, 0.0, 0.5)
         check_range("control_timestep_s", self.control_timestep_s, 1e-4, 0.1)
+        self.numerics.check_joints(self.gripper.filament.joints)
 
     @property
     def n_sub_steps(self) -> int:

@@ -1,0 +1,91 @@
+"""How well do the coils catch the object? A screen of gripper variants at the start of the lift.
+
+Over the calibration's tree trials, success follows how many contacts the filaments hold on the object when
+the lift starts (the row's `actuated.contacts.filament-object`; `catch_outcome_table` tabulates it from any
+rows). A calibration trial costs 5–18 minutes on the 2-core machine, and the approach, actuation and settle
+before the lift are about 40 % of its simulated time, so `screen` runs only those, for each variant and
+seed, under the trial's own watchdog, and returns the state the runner's `actuated` snapshot records plus the
+number of filaments that touch the object and their normal force on it. It ranks variants before a 20-seed
+run; it does not replace one.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+import pandas as pd
+
+from entangle_bench.metrics.contacts import contact_summary
+from entangle_bench.metrics.stats import wilson_interval
+from entangle_bench.studies.branching import run_until
+from entangle_bench.suite import resolve_config
+from entangle_bench.watchdog import Watchdog, WatchdogTripped
+
+#: The snapshot (`BenchTask.SNAPSHOTS`) a screen stops at.
+SNAPSHOT = "actuated"
+
+
+def catch_at_lift(task: str, config: Any, seed: int) -> dict[str, Any]:
+    """One trial run to the start of its `actuated` snapshot's phase under the watchdog: the snapshot's metrics,
+    `filaments_touching_object`, `object_normal_force_n` (N, filament–object normal forces summed), `unstable`
+    (the watchdog's reason, or ''), `sim_time_s` and `wall_s`."""
+    start = time.perf_counter()
+    watch: list[Watchdog] = []
+
+    def reached(env: Any) -> bool:
+        physics = env.physics
+        model, data = physics.model.ptr, physics.data.ptr
+        if watch:
+            watch[0].check(model, data)
+        else:  # after the reset, as the runner makes it
+            watch.append(Watchdog(model, data, env.task.watchdog_limits(), env.task.actuation_energy_j()))
+        return env.task.phase(physics) == type(env.task).SNAPSHOTS[SNAPSHOT]
+
+    row: dict[str, Any] = {"seed": seed, "unstable": ""}
+    try:
+        env, ended = run_until(task, config, seed, reached)
+    except (WatchdogTripped, mujoco.FatalError) as exc:
+        row.update(unstable=str(exc), sim_time_s=np.nan, wall_s=time.perf_counter() - start)
+        return row
+    physics = env.physics
+    if ended:
+        raise RuntimeError(f"{task} seed {seed} ended before its {SNAPSHOT!r} snapshot")
+    row.update({f"{SNAPSHOT}.{k}": v for k, v in env.task.snapshot(physics).metrics.items()})
+    summary = contact_summary(physics.model.ptr, physics.data.ptr, physics.scene.geoms)
+    on_object = summary.kinds == "filament-object"
+    filament = physics.scene.geoms.filament[summary.geom_pairs[on_object]]
+    row["filaments_touching_object"] = len(np.unique(filament[filament >= 0]))
+    row["object_normal_force_n"] = float(summary.normal_forces_n[on_object].sum())
+    row.update(sim_time_s=physics.time(), wall_s=time.perf_counter() - start)
+    return row
+
+
+def screen(task: str, preset: str, variants: Mapping[str, Sequence[str]], seeds: Sequence[int],
+           overrides: Sequence[str] = ()) -> pd.DataFrame:
+    """`catch_at_lift` for every variant (name -> `a.b=value` overrides on top of `overrides`) and seed; one row
+    each, with `variant`. Every configuration is resolved first, so a bad override fails before anything runs."""
+    configs = {name: resolve_config(task, preset, [*overrides, *extra]) for name, extra in variants.items()}
+    rows = [{"variant": name, **catch_at_lift(task, config, seed)}
+            for name, config in configs.items() for seed in seeds]
+    return pd.DataFrame(rows)
+
+
+def catch_outcome_table(rows: pd.DataFrame, edges: Sequence[int] = (0, 22, 30, 40)) -> pd.DataFrame:
+    """Success of scored trials (`outcome` success or failure) by their filament–object contacts at the start of
+    the lift, binned at `edges` (each bin [edge, next edge), the last one open): trials, successes, rate and
+    its Wilson 95 % interval."""
+    scored = rows[rows["outcome"].isin(["success", "failure"])]
+    contacts = scored[f"{SNAPSHOT}.contacts.filament-object"]
+    out = []
+    for low, high in zip(edges, [*edges[1:], np.inf]):
+        group = scored[(contacts >= low) & (contacts < high)]
+        n, k = len(group), int((group["outcome"] == "success").sum())
+        ci = wilson_interval(k, n) if n else (np.nan, np.nan)
+        label = f"{low}–{int(high) - 1}" if np.isfinite(high) else f"≥ {low}"
+        out.append({"contacts": label, "trials": n, "successes": k, "rate": k / n if n else np.nan,
+                    "ci95_low": ci[0], "ci95_high": ci[1]})
+    return pd.DataFrame(out)
