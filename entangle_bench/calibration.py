@@ -206,9 +206,10 @@ def parameter_table(candidate: Any, default: Any, parameters: tuple[Parameter, .
 
 
 def candidate_overrides(suite: str = CALIBRATION_SUITE) -> list[str]:
-    """The candidate's settings: the `set` of the suite's first condition as `a.b=value` overrides."""
+    """The candidate's settings: the suite's `set`, then its first condition's, as `a.b=value` overrides."""
     data = tomllib.loads(suite_path(suite).read_text())
-    return [f"{path}={value}" for path, value in data["conditions"][0].get("set", {}).items()]
+    settings = {**data.get("set", {}), **data["conditions"][0].get("set", {})}
+    return [f"{path}={value}" for path, value in settings.items()]
 
 
 def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tree") -> list[str]:
