@@ -18,6 +18,7 @@ from typing import Any
 import mujoco
 import numpy as np
 import pandas as pd
+from dm_control.rl.control import PhysicsError
 
 from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.stats import wilson_interval
@@ -48,7 +49,7 @@ def catch_at_lift(task: str, config: Any, seed: int) -> dict[str, Any]:
     row: dict[str, Any] = {"seed": seed, "unstable": ""}
     try:
         env, ended = run_until(task, config, seed, reached)
-    except (WatchdogTripped, mujoco.FatalError) as exc:
+    except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:  # unstable, as the runner counts it
         row.update(unstable=str(exc), sim_time_s=np.nan, wall_s=time.perf_counter() - start)
         return row
     physics = env.physics
