@@ -215,8 +215,9 @@ def candidate_overrides(suite: str = CALIBRATION_SUITE) -> list[str]:
 def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tree") -> list[str]:
     """The overrides that the pull-out task's config has (the gripper, contact, numerics and drape; not the lift).
 
-    `numerics.noslip_phases` names top-drape phases: the drape's own are kept, and the phases after the settle
-    (lift, hold, release: the object carried) become the pull-out's (clamp, pull: the object pulled out).
+    `numerics.noslip_phases` and `numerics.impratio_phases` name top-drape phases: the drape's own are kept, and
+    the phases after the settle (lift, hold, release: the object carried) become the pull-out's (clamp, pull: the
+    object pulled out).
     """
     config = TASKS.get(task).default_config()
     kept = []
@@ -226,7 +227,7 @@ def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tr
             _lookup(config, path)
         except AttributeError:
             continue
-        if path == "numerics.noslip_phases":
+        if path in ("numerics.noslip_phases", "numerics.impratio_phases"):
             override = f"{path}={','.join(_pullout_phases(coerce_text(value, tuple[str, ...], path)))}"
         kept.append(override)
     return kept

@@ -38,6 +38,10 @@ class Numerics:
     ls_iterations: int = 20
     impratio: float = 1.0
     """Ratio of frictional to normal constraint impedance; > 1 reduces creep of soft frictional contacts."""
+    impratio_phases: tuple[str, ...] = ()
+    """Task phases in which `impratio` applies (e.g. lift, hold, release: less creep while the grasp carries the
+    load); 1 in the others; empty: every step. A filament wedged in a branch crotch during the approach is held
+    by friction and sinks into the branch when friction is the stiffer constraint."""
     noslip_iterations: int = 0
     """Post-processing iterations of MuJoCo's noslip solver that remove frictional creep (0: off)."""
     noslip_phases: tuple[str, ...] = ()
@@ -93,7 +97,7 @@ class Numerics:
         opt.iterations = self.iterations
         opt.tolerance = self.tolerance
         opt.ls_iterations = self.ls_iterations
-        opt.impratio = self.impratio
+        opt.impratio = 1.0 if self.impratio_phases else self.impratio  # tasks switch it per phase
         opt.noslip_iterations = 0 if self.noslip_phases else self.noslip_iterations  # tasks switch it per phase
         if not self.euler_implicit_damping:
             opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP

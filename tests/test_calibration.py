@@ -60,5 +60,7 @@ def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_ra
     # Noslip over the top-drape's carrying phases becomes noslip over the pull-out's (its own phase names).
     pull = calibration.pullout_overrides(["numerics.noslip_iterations=10", "numerics.noslip_phases=settle,lift,hold"])
     assert pull[1] == "numerics.noslip_phases=settle,clamp,pull"
+    impratio = calibration.pullout_overrides(["numerics.impratio_phases=lift,hold"])
+    assert impratio == ["numerics.impratio_phases=clamp,pull"]
     config = resolve_config("pullout_eight_branch_tree", None, pull)
     TASKS.get("pullout_eight_branch_tree").make_environment(config, 0)  # the phases are the pull-out's own

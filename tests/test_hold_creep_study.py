@@ -55,3 +55,6 @@ def test_noslip_variants_are_refused_when_the_task_switches_noslip_per_phase(sho
         hold_branches(spec.task, config, spec.seed, {"noslip": {"noslip_iterations": 5}}, hold_s=0.2)
     with pytest.raises(ParameterError, match="'noslip'.*noslip_phases"):
         branch_outcomes(spec.task, config, spec.seed, {"noslip": {"noslip_iterations": 5}})
+    per_phase = short_spec(extra=("numerics.impratio=10", "numerics.impratio_phases=hold")).config
+    with pytest.raises(ParameterError, match="'stiff'.*sets impratio.*impratio_phases"):
+        branch_outcomes(spec.task, per_phase, spec.seed, {"stiff": {"impratio": 100}})

@@ -30,18 +30,22 @@ from entangle_bench.studies.branching import SavedTrial, option_variants, run_un
 from entangle_bench.suite.top_drape import object_tilt_deg
 from entangle_bench.watchdog import Watchdog, WatchdogTripped
 
+#: mjOption fields a task sets at every step when the config names phases for them: option -> phases field.
+_PER_PHASE = {"noslip_iterations": "noslip_phases", "impratio": "impratio_phases"}
+
 
 def _check_variants(config: Any, variants: Mapping[str, Mapping[str, float]]) -> None:
-    """Refuse variants that set `noslip_iterations` on a config whose task switches it per phase."""
-    phases = config.numerics.noslip_phases
-    if not phases:
-        return
-    for name, changes in variants.items():
-        if "noslip_iterations" in changes:
-            raise ParameterError(
-                f"variant {name!r} sets noslip_iterations, but numerics.noslip_phases={list(phases)} makes the task "
-                "set it at every step; drop numerics.noslip_phases (and numerics.noslip_iterations) from the config"
-            )
+    """Refuse variants that set an mjOption field the config's task switches per phase."""
+    for option, field_name in _PER_PHASE.items():
+        phases = getattr(config.numerics, field_name)
+        if not phases:
+            continue
+        for name, changes in variants.items():
+            if option in changes:
+                raise ParameterError(
+                    f"variant {name!r} sets {option}, but numerics.{field_name}={list(phases)} makes the task "
+                    f"set it at every step; drop numerics.{field_name} from the config"
+                )
 
 
 def _branch_point(task: str, config: Any, seed: int, phase: str) -> tuple[Any, SavedTrial]:

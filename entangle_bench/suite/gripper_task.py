@@ -267,8 +267,9 @@ class GripperTask(BenchTask[G]):
 
     def __init__(self, config: G, seed: int):
         super().__init__(config, seed)
-        for name in config.numerics.noslip_phases:
-            check_choice("numerics.noslip_phases", name, self.PHASES)
+        for field_name in ("noslip_phases", "impratio_phases"):
+            for name in getattr(config.numerics, field_name):
+                check_choice(f"numerics.{field_name}", name, self.PHASES)
         self.angles = np.zeros(config.gripper.n_filaments)
         self._pressure_fraction = 0.0
 
@@ -291,11 +292,14 @@ class GripperTask(BenchTask[G]):
         )
 
     def before_step(self, action: np.ndarray, physics: ScenePhysics) -> None:
-        """Set the hub velocity and the shared pressure; run noslip only in `numerics.noslip_phases` (if any)."""
-        numerics = self.config.numerics
+        """Set the hub velocity and the shared pressure; run noslip only in `numerics.noslip_phases` and apply
+        `numerics.impratio` only in `numerics.impratio_phases` (where given)."""
+        numerics, opt = self.config.numerics, physics.model.opt
+        phase = self.phase(physics)
         if numerics.noslip_phases:
-            on = self.phase(physics) in numerics.noslip_phases
-            physics.model.opt.noslip_iterations = numerics.noslip_iterations if on else 0
+            opt.noslip_iterations = numerics.noslip_iterations if phase in numerics.noslip_phases else 0
+        if numerics.impratio_phases:
+            opt.impratio = numerics.impratio if phase in numerics.impratio_phases else 1.0
         action = np.asarray(action, dtype=float)
         physics.hub_velocity[:] = np.clip(action[:3], -MAX_HUB_SPEED_M_S, MAX_HUB_SPEED_M_S)
         fraction = float(np.clip(action[3], 0.0, 1.0))

@@ -146,6 +146,37 @@ def test_noslip_runs_only_in_its_phases_and_leaves_the_rest_of_the_trial_unchang
     assert np.abs(plain[-1][2] - switched[-1][2]).max() > 1e-9
 
 
+class _ImpratioByPhase(_NoslipByPhase):
+    """Observer: per control step, the phase, the impratio it ran with, and qpos after it."""
+
+    def step(self, env):
+        physics = env.physics
+        self.steps.append((self.phase, float(physics.model.opt.impratio), physics.data.qpos.copy()))
+        self.phase = env.task.phase(physics)
+
+
+def test_impratio_applies_only_in_its_phases_and_is_one_elsewhere():
+    """impratio 10 in lift and hold only: bit-identical to impratio 1 up to the lift, different after it."""
+    base = [*SHORT_SEQUENCE, "numerics.timestep_s=1e-3", "effects.cone=elliptic"]
+    runs = {}
+    for name, extra in (("plain", ["numerics.impratio=1"]), ("lift_hold", ["numerics.impratio=10",
+                                                                         "numerics.impratio_phases=lift,hold"])):
+        probe = _ImpratioByPhase()
+        simulate("eight_branch_tree", resolve_config("eight_branch_tree", "fast", [*base, *extra]), 0,
+                 observers=[probe])
+        runs[name] = probe.steps
+    plain, switched = runs["plain"], runs["lift_hold"]
+    assert {p for p, r, _ in switched if r == 10.0} == {"lift", "hold"}
+    assert {p for p, r, _ in switched if r == 1.0} == {"approach", "actuate", "settle", "release"}
+    first_lift = next(i for i, (p, _, _) in enumerate(switched) if p == "lift")
+    for (_, _, q_plain), (_, _, q_switched) in zip(plain[:first_lift], switched[:first_lift]):
+        np.testing.assert_array_equal(q_plain, q_switched)
+    assert np.abs(plain[-1][2] - switched[-1][2]).max() > 1e-9
+    config = resolve_config("eight_branch_tree", None, ["numerics.impratio_phases=hodl"])
+    with pytest.raises(ParameterError, match=r"impratio_phases = 'hodl'.*'lift', 'hold'"):
+        TASKS.get("eight_branch_tree").make_environment(config, 0)
+
+
 def test_noslip_phases_must_name_task_phases_and_need_iterations():
     with pytest.raises(ParameterError, match="noslip_iterations > 0"):
         resolve_config("eight_branch_tree", None, ["numerics.noslip_phases=lift"])
