@@ -20,6 +20,7 @@ from entangle_bench.config import coerce_text
 from entangle_bench.metrics.pullout import REFERENCE_TOUGHNESS_J
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.objects.registry import object_info
+from entangle_bench.presets import PER_PHASE_OPTIONS
 from entangle_bench.suite import TASKS, resolve_config
 from entangle_bench.suite.pullout import PullSchedule
 from entangle_bench.suite.top_drape import Schedule
@@ -227,7 +228,7 @@ def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tr
             _lookup(config, path)
         except AttributeError:
             continue
-        if path in ("numerics.noslip_phases", "numerics.impratio_phases"):
+        if path in {f"numerics.{field_name}" for field_name, _ in PER_PHASE_OPTIONS.values()}:
             override = f"{path}={','.join(_pullout_phases(coerce_text(value, tuple[str, ...], path)))}"
         kept.append(override)
     return kept

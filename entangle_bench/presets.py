@@ -24,6 +24,14 @@ Integrator = Literal["euler", "implicitfast", "implicit", "rk4", "discrete"]
 Solver = Literal["cg", "newton", "pgs"]
 
 
+#: mjOption fields a task may switch per phase: option (a Numerics field too) -> (the Numerics field naming its
+#: phases, the option's value outside them).
+PER_PHASE_OPTIONS: dict[str, tuple[str, float]] = {
+    "noslip_iterations": ("noslip_phases", 0),
+    "impratio": ("impratio_phases", 1.0),
+}
+
+
 @dataclass(frozen=True)
 class Numerics:
     """Discretization and solver settings of one simulation."""
@@ -78,6 +86,16 @@ class Numerics:
                 "MuJoCo gives a ball joint one armature for all three DOFs"
             )
 
+    def phase_options(self, phase: str | None) -> dict[str, float]:
+        """mjOption values, in task phase `phase`, of the per-phase options (PER_PHASE_OPTIONS) whose phases this
+        names: the configured value inside them, the off value outside (and for `phase` None)."""
+        options = {}
+        for option, (field_name, off) in PER_PHASE_OPTIONS.items():
+            phases = getattr(self, field_name)
+            if phases:
+                options[option] = getattr(self, option) if phase in phases else off
+        return options
+
     def apply(self, spec: mujoco.MjSpec) -> None:
         """Write timestep, integrator and solver settings into `spec.option`."""
         opt = spec.option
@@ -97,8 +115,10 @@ class Numerics:
         opt.iterations = self.iterations
         opt.tolerance = self.tolerance
         opt.ls_iterations = self.ls_iterations
-        opt.impratio = 1.0 if self.impratio_phases else self.impratio  # tasks switch it per phase
-        opt.noslip_iterations = 0 if self.noslip_phases else self.noslip_iterations  # tasks switch it per phase
+        opt.impratio = self.impratio
+        opt.noslip_iterations = self.noslip_iterations
+        for option, value in self.phase_options(None).items():  # off until the task switches it per phase
+            setattr(opt, option, value)
         if not self.euler_implicit_damping:
             opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
 

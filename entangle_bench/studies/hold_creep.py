@@ -26,17 +26,15 @@ import pandas as pd
 from dm_control.rl.control import PhysicsError
 
 from entangle_bench.errors import ParameterError
+from entangle_bench.presets import PER_PHASE_OPTIONS
 from entangle_bench.studies.branching import SavedTrial, option_variants, run_until
 from entangle_bench.suite.top_drape import object_tilt_deg
 from entangle_bench.watchdog import Watchdog, WatchdogTripped
 
-#: mjOption fields a task sets at every step when the config names phases for them: option -> phases field.
-_PER_PHASE = {"noslip_iterations": "noslip_phases", "impratio": "impratio_phases"}
-
 
 def _check_variants(config: Any, variants: Mapping[str, Mapping[str, float]]) -> None:
     """Refuse variants that set an mjOption field the config's task switches per phase."""
-    for option, field_name in _PER_PHASE.items():
+    for option, (field_name, _) in PER_PHASE_OPTIONS.items():
         phases = getattr(config.numerics, field_name)
         if not phases:
             continue

@@ -27,7 +27,7 @@ from entangle_bench.gripper import GripperParams, bending_angles
 from entangle_bench.metrics.acn import acn_total
 from entangle_bench.metrics.contacts import ContactSummary, ObjectSupport, contact_summary, object_support
 from entangle_bench.metrics.local_fields import local_fields
-from entangle_bench.presets import Numerics
+from entangle_bench.presets import PER_PHASE_OPTIONS, Numerics
 from entangle_bench.scene import ContactParams, Scene, SceneConfig
 from entangle_bench.suite.base import BenchTask, Snapshot
 from entangle_bench.viz import object_geometry, pack
@@ -267,7 +267,7 @@ class GripperTask(BenchTask[G]):
 
     def __init__(self, config: G, seed: int):
         super().__init__(config, seed)
-        for field_name in ("noslip_phases", "impratio_phases"):
+        for field_name, _ in PER_PHASE_OPTIONS.values():
             for name in getattr(config.numerics, field_name):
                 check_choice(f"numerics.{field_name}", name, self.PHASES)
         self.angles = np.zeros(config.gripper.n_filaments)
@@ -292,14 +292,10 @@ class GripperTask(BenchTask[G]):
         )
 
     def before_step(self, action: np.ndarray, physics: ScenePhysics) -> None:
-        """Set the hub velocity and the shared pressure; run noslip only in `numerics.noslip_phases` and apply
-        `numerics.impratio` only in `numerics.impratio_phases` (where given)."""
-        numerics, opt = self.config.numerics, physics.model.opt
-        phase = self.phase(physics)
-        if numerics.noslip_phases:
-            opt.noslip_iterations = numerics.noslip_iterations if phase in numerics.noslip_phases else 0
-        if numerics.impratio_phases:
-            opt.impratio = numerics.impratio if phase in numerics.impratio_phases else 1.0
+        """Set the hub velocity and the shared pressure, and the per-phase solver options for this phase
+        (`Numerics.phase_options`: noslip only in `noslip_phases`, impratio only in `impratio_phases`)."""
+        for option, value in self.config.numerics.phase_options(self.phase(physics)).items():
+            setattr(physics.model.opt, option, value)
         action = np.asarray(action, dtype=float)
         physics.hub_velocity[:] = np.clip(action[:3], -MAX_HUB_SPEED_M_S, MAX_HUB_SPEED_M_S)
         fraction = float(np.clip(action[3], 0.0, 1.0))

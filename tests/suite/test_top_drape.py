@@ -107,79 +107,58 @@ def test_short_real_trial_of_default_tree_task(tmp_path):
     assert row["config.phases.hold_time_s"] == 0.3 and row["config.object_name"] == "eight_branch_tree"
 
 
-class _NoslipByPhase:
-    """Observer: per control step, the phase it ran in, the noslip iterations it ran with, and qpos after it."""
+class _OptionByPhase:
+    """Observer: per control step, the phase it ran in, the mjOption `option` it ran with, and qpos after it."""
 
-    def __init__(self):
-        self.steps = []
+    def __init__(self, option):
+        self.option, self.steps = option, []
 
     def start(self, env):
         self.phase = env.task.phase(env.physics)
 
     def step(self, env):
         physics = env.physics
-        self.steps.append((self.phase, int(physics.model.opt.noslip_iterations), physics.data.qpos.copy()))
+        self.steps.append((self.phase, getattr(physics.model.opt, self.option), physics.data.qpos.copy()))
         self.phase = env.task.phase(physics)
 
     def finish(self, row, complete):
         pass
 
 
-def test_noslip_runs_only_in_its_phases_and_leaves_the_rest_of_the_trial_unchanged():
-    """With noslip_phases = lift, hold the trajectory is bit-identical to the plain trial up to the lift (noslip
-    is off), and differs from the lift on (the noslip solver acts on the contacts carrying the object)."""
-    base = [*SHORT_SEQUENCE, "numerics.timestep_s=1e-3"]
+@pytest.mark.parametrize("option, base, plain, switched, on, off", [
+    # noslip in lift and hold: the noslip solver acts on the contacts carrying the object.
+    ("noslip_iterations", [], [], ["numerics.noslip_iterations=10", "numerics.noslip_phases=lift,hold"], 10, 0),
+    # impratio 10 in lift and hold, 1 elsewhere: compared with impratio 1 throughout.
+    ("impratio", ["effects.cone=elliptic"], ["numerics.impratio=1"],
+     ["numerics.impratio=10", "numerics.impratio_phases=lift,hold"], 10.0, 1.0),
+])
+def test_per_phase_option_applies_only_in_its_phases_and_leaves_the_rest_unchanged(option, base, plain, switched,
+                                                                                   on, off):
+    """With the option's phases = lift, hold the trajectory is bit-identical to the plain trial up to the lift (the
+    option is at its off value), and differs from the lift on."""
+    base = [*SHORT_SEQUENCE, "numerics.timestep_s=1e-3", *base]
     runs = {}
-    for name, extra in (("plain", []), ("lift_hold", ["numerics.noslip_iterations=10",
-                                                     "numerics.noslip_phases=lift,hold"])):
-        probe = _NoslipByPhase()
+    for name, extra in (("plain", plain), ("lift_hold", switched)):
+        probe = _OptionByPhase(option)
         simulate("eight_branch_tree", resolve_config("eight_branch_tree", "fast", [*base, *extra]), 0,
                  observers=[probe])
         runs[name] = probe.steps
     plain, switched = runs["plain"], runs["lift_hold"]
     assert [p for p, _, _ in plain] == [p for p, _, _ in switched]
-    assert {p for p, n, _ in switched if n} == {"lift", "hold"}
-    assert {p for p, n, _ in switched if not n} == {"approach", "actuate", "settle", "release"}
+    assert {p for p, v, _ in switched if v == on} == {"lift", "hold"}
+    assert {p for p, v, _ in switched if v == off} == {"approach", "actuate", "settle", "release"}
     first_lift = next(i for i, (p, _, _) in enumerate(switched) if p == "lift")
     for (_, _, q_plain), (_, _, q_switched) in zip(plain[:first_lift], switched[:first_lift]):
         np.testing.assert_array_equal(q_plain, q_switched)
     assert np.abs(plain[-1][2] - switched[-1][2]).max() > 1e-9
 
 
-class _ImpratioByPhase(_NoslipByPhase):
-    """Observer: per control step, the phase, the impratio it ran with, and qpos after it."""
-
-    def step(self, env):
-        physics = env.physics
-        self.steps.append((self.phase, float(physics.model.opt.impratio), physics.data.qpos.copy()))
-        self.phase = env.task.phase(physics)
-
-
-def test_impratio_applies_only_in_its_phases_and_is_one_elsewhere():
-    """impratio 10 in lift and hold only: bit-identical to impratio 1 up to the lift, different after it."""
-    base = [*SHORT_SEQUENCE, "numerics.timestep_s=1e-3", "effects.cone=elliptic"]
-    runs = {}
-    for name, extra in (("plain", ["numerics.impratio=1"]), ("lift_hold", ["numerics.impratio=10",
-                                                                         "numerics.impratio_phases=lift,hold"])):
-        probe = _ImpratioByPhase()
-        simulate("eight_branch_tree", resolve_config("eight_branch_tree", "fast", [*base, *extra]), 0,
-                 observers=[probe])
-        runs[name] = probe.steps
-    plain, switched = runs["plain"], runs["lift_hold"]
-    assert {p for p, r, _ in switched if r == 10.0} == {"lift", "hold"}
-    assert {p for p, r, _ in switched if r == 1.0} == {"approach", "actuate", "settle", "release"}
-    first_lift = next(i for i, (p, _, _) in enumerate(switched) if p == "lift")
-    for (_, _, q_plain), (_, _, q_switched) in zip(plain[:first_lift], switched[:first_lift]):
-        np.testing.assert_array_equal(q_plain, q_switched)
-    assert np.abs(plain[-1][2] - switched[-1][2]).max() > 1e-9
-    config = resolve_config("eight_branch_tree", None, ["numerics.impratio_phases=hodl"])
-    with pytest.raises(ParameterError, match=r"impratio_phases = 'hodl'.*'lift', 'hold'"):
-        TASKS.get("eight_branch_tree").make_environment(config, 0)
-
-
-def test_noslip_phases_must_name_task_phases_and_need_iterations():
+def test_per_phase_options_must_name_task_phases_and_noslip_needs_iterations():
     with pytest.raises(ParameterError, match="noslip_iterations > 0"):
         resolve_config("eight_branch_tree", None, ["numerics.noslip_phases=lift"])
     config = resolve_config("eight_branch_tree", None, ["numerics.noslip_iterations=5", "numerics.noslip_phases=lfit"])
     with pytest.raises(ParameterError, match=r"noslip_phases = 'lfit'.*'lift', 'hold'"):
+        TASKS.get("eight_branch_tree").make_environment(config, 0)
+    config = resolve_config("eight_branch_tree", None, ["numerics.impratio_phases=hodl"])
+    with pytest.raises(ParameterError, match=r"impratio_phases = 'hodl'.*'lift', 'hold'"):
         TASKS.get("eight_branch_tree").make_environment(config, 0)
