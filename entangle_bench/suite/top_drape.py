@@ -56,11 +56,17 @@ class TopDrapeConfig(DrapeConfig):
     max_tilt_deg: float = 45.0
     """Success also needs the object upright: its vertical axis within this angle of the world's for the whole
     hold, deg (a toppled or dangling object is not a grasp)."""
+    max_pinched_support_w: float = 0.5
+    """Success also needs the object carried by wraps and friction, not by a pinch: the mean upward force over
+    the hold through filament segments that touch two object faces at once (`support.pinched_w`) at most this,
+    in object weights (a segment squeezed between two faces of one rigid object is a clamp, and the force a
+    soft-contact wedge builds comes from penetration, not from the filament)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
         check_range("success_margin_m", self.success_margin_m, 0.0, 1.0, low_open=True)
         check_range("max_tilt_deg", self.max_tilt_deg, 0.0, 180.0, low_open=True)
+        check_range("max_pinched_support_w", self.max_pinched_support_w, 0.0, 10.0)
 
 
 @dataclass(frozen=True)
@@ -155,8 +161,10 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
 
         Success: for the whole hold the object's lowest point stays at least `success_margin_m` above the
         ground and its vertical axis within `max_tilt_deg` of the world's (not for an orientation-free object,
-        a ball, whose tilt is recorded but not judged). Failure modes: never_lifted,
-        dropped_during_lift (low when the hold starts), dropped_during_hold, tilted (held up but tipped).
+        a ball, whose tilt is recorded but not judged), and pinches carry at most `max_pinched_support_w` of its
+        weight on average over the hold (not judged without gravity). Failure modes: never_lifted,
+        dropped_during_lift (low when the hold starts), dropped_during_hold, tilted (held up but tipped),
+        pinched (held up, but by a pinch).
         """
         t, s, track, cfg = physics.time(), self.schedule, self._tracking, self.config
         pos, quat = physics.object_pose()
@@ -181,7 +189,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
                 else:
                     track.hold_reached_s = t - s.t_hold
         if t >= s.t_release - 1e-9 and self.outcome is None:
-            self.decide(self._classify(t))
+            self.decide(self._classify(t, float(np.linalg.norm(physics.object_weight()))))
 
     def _add_support(self, support: ObjectSupport) -> None:
         """Add one hold step's upward forces on the object by source to the running sums."""
@@ -195,17 +203,22 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
             sums[name] = sums.get(name, 0.0) + float(value)
         track.support_samples += 1
 
-    def _classify(self, t: float) -> Outcome:
-        """The outcome from the tracking at the end of the hold (time t, s)."""
+    def _classify(self, t: float, weight_n: float) -> Outcome:
+        """The outcome from the tracking at the end of the hold (time t, s; the object's weight, N)."""
         track = self._tracking
+        pinched_w = track.support_z_n.get("pinched", 0.0) / max(1, track.support_samples) / weight_n \
+            if weight_n > 0 else 0.0
         evidence = {
             "max_rise_m": float(track.max_rise_m),
             "lifted": float(track.lifted),
             "hold_reached_s": track.hold_reached_s,
             "hold_failed_at_s": math.nan if track.hold_failed_at_s is None else track.hold_failed_at_s,
             "max_hold_tilt_deg": track.max_hold_tilt_deg,
+            "pinched_support_w": pinched_w,
         }
         if track.hold_failed_at_s is None:
+            if pinched_w > self.config.max_pinched_support_w:
+                return Outcome("failure", "pinched", t, evidence)
             return Outcome("success", "", t, evidence)
         if not track.lifted:
             mode = "never_lifted"

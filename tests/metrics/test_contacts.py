@@ -8,7 +8,7 @@ import pytest
 
 from entangle_bench.errors import ParameterError
 from entangle_bench.geoms import KINDS, GeomClasses
-from entangle_bench.metrics.contacts import contact_summary
+from entangle_bench.metrics.contacts import contact_summary, object_support
 
 GRAVITY = 9.81
 BOX_MASS, CAPSULE_MASS, RADIUS = 0.2, 0.01, 0.005
@@ -137,3 +137,46 @@ def test_rejects_misshapen_class_arrays():
         GeomClasses(geoms.filament.astype(float), geoms.is_object, geoms.is_ground)
     with pytest.raises(ParameterError, match="contact kind"):
         contact_summary(model, data, geoms).normal_force_sum_n("x")
+
+
+def groove_scene() -> mujoco.MjModel:
+    """A fixed object: a right-angled V-groove of two plates (`object_left`, `object_right`, vertex along y at
+    the origin) and a flat shelf (`object_shelf`, top at z = 0, at x = 0.2 m). Filament 0 lies in the groove,
+    touching both plates; filament 1 lies on the shelf."""
+    spec = mujoco.MjSpec()
+    spec.option.timestep = 0.002
+    obj = spec.worldbody.add_body(name="object")
+    half, thick, s = 0.03, 0.005, np.sqrt(0.5)
+    for name, side in (("left", -1), ("right", 1)):
+        along, normal = np.array([side * s, 0, s]), np.array([-side * s, 0, s])  # up the plate, into the groove
+        angle = -side * np.pi / 4  # about y
+        obj.add_geom(name=f"object_{name}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[half, 0.05, thick],
+                     pos=half * along - thick * normal, quat=[np.cos(angle / 2), 0, np.sin(angle / 2), 0])
+    obj.add_geom(name="object_shelf", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.05, thick],
+                 pos=[0.2, 0, -thick])
+    for i, pos in enumerate(([0, 0, RADIUS / s + 0.002], [0.2, 0, RADIUS + 0.002])):
+        body = spec.worldbody.add_body(name=f"f{i:02d}_b000", pos=pos)
+        body.add_freejoint()
+        body.add_geom(name=f"f{i:02d}_g000", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[RADIUS, 0, 0],
+                      fromto=[0, -0.04, 0, 0, 0.04, 0], mass=CAPSULE_MASS)
+    return spec.compile()
+
+
+def test_a_segment_touching_two_object_faces_is_pinched_and_statics_balance():
+    model = groove_scene()
+    data = mujoco.MjData(model)
+    for _ in range(500):  # 1 s: both capsules come to rest
+        mujoco.mj_step(model, data)
+    geoms = GeomClasses.from_model(model)
+    support = object_support(model, data, geoms)
+    weight = np.array([0.0, 0.0, -CAPSULE_MASS * GRAVITY])
+    # The grooved capsule presses on both plates: all of its weight goes to `pinched`, none to a part.
+    np.testing.assert_allclose(support.pinched, weight, atol=0.02 * CAPSULE_MASS * GRAVITY)
+    assert list(support.by_part) == ["shelf"]
+    np.testing.assert_allclose(support.by_part["shelf"], weight, atol=0.02 * CAPSULE_MASS * GRAVITY)
+    np.testing.assert_allclose(support.filament_total, 2 * weight, atol=0.04 * CAPSULE_MASS * GRAVITY)
+    assert not support.ground.any() and support.filament_filament_n == 0.0
+    # The wedge's normal forces exceed the weight: each plate pushes with W / (2 cos 45°) = W / √2.
+    summary = contact_summary(model, data, geoms)
+    grooved = summary.normal_forces_n[(summary.kinds == "filament-object") & (summary.points[:, 0] < 0.1)]
+    assert grooved.sum() == pytest.approx(np.sqrt(2) * CAPSULE_MASS * GRAVITY, rel=0.03)

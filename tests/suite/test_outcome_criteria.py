@@ -1,4 +1,10 @@
-"""The upright criterion: a held object tilted past `max_tilt_deg` fails as `tilted`, unless it is a ball."""
+"""The outcome's honesty criteria: a held object tilted past `max_tilt_deg` fails as `tilted`, unless it is a
+ball; one carried by pinches beyond `max_pinched_support_w` of its weight fails as `pinched`."""
+
+import dataclasses
+
+import numpy as np
+import pytest
 
 from entangle_bench import objects
 from entangle_bench.runner import simulate
@@ -30,3 +36,21 @@ def test_balls_are_orientation_free_and_upright_objects_are_not():
     assert objects.object_info("tennis_ball").orientation_free
     for name in ("eight_branch_tree", "cylinder_38", "cylinder_51"):
         assert not objects.object_info(name).orientation_free, name
+
+
+@pytest.mark.parametrize("pinch_w, outcome", [(0.4, ("success", "")), (0.6, ("failure", "pinched"))])
+def test_a_hold_carried_by_a_pinch_fails_as_pinched(short_spec, monkeypatch, pinch_w, outcome):
+    # The weightless lift, given a weight and an upward pinch force of `pinch_w` weights on every step.
+    spec = short_spec("eight_branch_tree", seed=2, extra=WEIGHTLESS_LIFT)
+    weight = np.array([0.0, 0.0, -0.3])
+    measured = ScenePhysics.object_support
+
+    def pinching(self):
+        support = measured(self)
+        return dataclasses.replace(support, pinched=support.pinched - pinch_w * weight)
+
+    monkeypatch.setattr(ScenePhysics, "object_weight", lambda self: weight)
+    monkeypatch.setattr(ScenePhysics, "object_support", pinching)
+    row = simulate(spec.task, spec.config, spec.seed).row
+    assert (row["outcome"], row["failure_mode"]) == outcome
+    assert row["support.pinched_w"] == pytest.approx(pinch_w, abs=1e-9)
