@@ -2,8 +2,9 @@
 
 Runs each variant's trials (`--seed` and the next `--seeds - 1` seeds) through the approach, actuation and
 settle only (`entangle_bench.studies.catch`), and prints per variant the mean filament–object contacts, the
-filaments touching the object and their normal force on it, with the paired difference of each seed against
-the first variant. `--rows FILE ...` first prints how success follows those contacts in finished trials.
+filament self-contacts (a coil lying on itself catches nothing), the filaments touching the object and their
+normal force on it, with the paired difference of each seed against the first variant. `--rows FILE ...`
+first prints how success follows those contacts in finished trials.
 
 Usage: python scripts/screen_catch.py [--task eight_branch_tree] [--preset balanced] [--set a.b=v ...]
            [--variant NAME:a.b=v,c.d=w ...] [--seed 0] [--seeds 4] [--out screen.csv] [--rows trials.jsonl ...]
@@ -25,6 +26,7 @@ from entangle_bench.studies.catch import SNAPSHOT, catch_outcome_table, screen
 from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
 
 CONTACTS = f"{SNAPSHOT}.contacts.filament-object"
+SELF = f"{SNAPSHOT}.contacts.filament-self"  # a coil lying on itself is not around the object
 
 
 def _variant(text: str) -> tuple[str, list[str]]:
@@ -65,14 +67,15 @@ def main() -> None:
         atomic_write_text(args.out, rows.to_csv(index=False))
     stable = rows[rows["unstable"] == ""]
     base = stable[stable["variant"] == next(iter(variants))].set_index("seed")[CONTACTS]
-    print("| variant | stable / run | filament–object contacts | filaments touching | normal force on the object (N) "
-          "| paired difference in contacts | wall per trial (s) |")
-    print("|---|---|---|---|---|---|---|")
+    print("| variant | stable / run | filament–object contacts | filament self-contacts | filaments touching "
+          "| normal force on the object (N) | paired difference in contacts | wall per trial (s) |")
+    print("|---|---|---|---|---|---|---|---|")
     for name in variants:
         mine, ran = stable[stable["variant"] == name], rows[rows["variant"] == name]
         diff = (mine.set_index("seed")[CONTACTS] - base).dropna()
         print(f"| {name} | {len(mine)} / {len(ran)} | {mine[CONTACTS].mean():.1f} ± {mine[CONTACTS].std():.1f} | "
-              f"{mine['filaments_touching_object'].mean():.1f} | {mine['object_normal_force_n'].mean():.3f} | "
+              f"{mine[SELF].mean():.0f} | {mine['filaments_touching_object'].mean():.1f} | "
+              f"{mine['object_normal_force_n'].mean():.3f} | "
               f"{diff.mean():+.1f} ({len(diff)} seeds) | {ran['wall_s'].mean():.0f} |")
 
 
