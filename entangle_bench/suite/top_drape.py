@@ -114,7 +114,11 @@ class _GraspTracking:
     """Largest upward force the filaments exerted on the object (lift and hold), N."""
     support_samples: int = 0
     support_z_n: dict[str, float] = field(default_factory=dict)
-    """Sum over hold steps of the upward force on the object by source, N (divide by support_samples)."""
+    """Sum over hold steps of the upward force on the object by source, N (`mean_support_n` averages it)."""
+
+    def mean_support_n(self, source: str) -> float:
+        """Mean upward force on the object from `source` over the hold so far, N (0 before the hold)."""
+        return self.support_z_n.get(source, 0.0) / max(1, self.support_samples)
 
 
 def object_tilt_deg(quat: np.ndarray) -> float:
@@ -206,8 +210,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
     def _classify(self, t: float, weight_n: float) -> Outcome:
         """The outcome from the tracking at the end of the hold (time t, s; the object's weight, N)."""
         track = self._tracking
-        pinched_w = track.support_z_n.get("pinched", 0.0) / max(1, track.support_samples) / weight_n \
-            if weight_n > 0 else 0.0
+        pinched_w = track.mean_support_n("pinched") / weight_n if weight_n > 0 else 0.0
         evidence = {
             "max_rise_m": float(track.max_rise_m),
             "lifted": float(track.lifted),
@@ -245,9 +248,8 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
             "max_hold_tilt_deg": track.max_hold_tilt_deg,
             "peak_lift_force_w": track.peak_lift_force_n / weight,
         }
-        samples = max(1, track.support_samples)
-        for name, total in sorted(track.support_z_n.items()):
-            mean = total / samples
+        for name in sorted(track.support_z_n):
+            mean = track.mean_support_n(name)
             if name == "filament_filament_normal":
                 row["support.filament_filament_normal_n"] = mean
             else:
