@@ -169,8 +169,8 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("gripper.pressure_pa", "reference", 172e3, 172e3, "172 kPa"),
     Parameter("gripper.ring_diameters_m", "reference", note="8 on a 50 mm circle, 4 on a 25 mm circle"),
     Parameter("gripper.filament.joints", "numerical",
-              note="ball: twist stiffness EI, 3–28 % of L off out of plane; hinges: within 2 % at 40 segments, "
-                   "tree 2/12 (coils 1.42x softer in stretch)"),
+              note="hinges: twist GJ, within 2 % of L on every rod case at 40 segments; ball: twist EI, 3–28 % "
+                   "of L off out of plane"),
     Parameter("gripper.filament.n_segments", "numerical"),
     Parameter("gripper.filament.twist_ratio", "fitted",
               note="rest twist / curvature: > 0 coils helically, as the reference's filaments do near full pressure"),
@@ -216,7 +216,14 @@ def candidate_overrides(suite: str = CALIBRATION_SUITE) -> list[str]:
     """The candidate's settings: the suite's `set`, then its first condition's, as `a.b=value` overrides."""
     data = tomllib.loads(suite_path(suite).read_text())
     settings = {**data.get("set", {}), **data["conditions"][0].get("set", {})}
-    return [f"{path}={value}" for path, value in settings.items()]
+    return [f"{path}={_override_text(value)}" for path, value in settings.items()]
+
+
+def _override_text(value: Any) -> str:
+    """A TOML value as `--set` text: lists comma-separated, booleans lower case."""
+    if isinstance(value, list):
+        return ",".join(_override_text(item) for item in value)
+    return str(value).lower() if isinstance(value, bool) else str(value)
 
 
 def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tree") -> list[str]:

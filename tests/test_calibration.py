@@ -48,6 +48,10 @@ def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_ra
     suite = load_suite(calibration.CALIBRATION_SUITE, trials=1)
     offsets = sorted({spec.config.offset_m for spec in suite.specs if spec.task == TREE})
     assert offsets == [0.0, pytest.approx(calibration.tree_offset_m(), abs=5e-4)]
+    # The overrides give the suite's own tree config (lists and booleans included), so the tables and the
+    # pull-out describe the trials that ran.
+    tree = next(spec for spec in suite.specs if spec.task == TREE and spec.config.offset_m == 0.0)
+    assert resolve_config("eight_branch_tree", suite.preset, calibration.candidate_overrides()) == tree.config
     table = calibration.candidate_parameters(calibration.candidate_overrides()).set_index("parameter")
     assert table.loc["gripper.filament.outer_radius_m", "inside_physical_range"] == "no"  # aspect ratio 150 < 200
     assert table.loc["gripper.filament.youngs_modulus_pa", "inside_physical_range"] == "yes"
