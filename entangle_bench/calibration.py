@@ -113,8 +113,10 @@ def _toughness(pullout: pd.DataFrame | None) -> tuple[str, str, str]:
     if pullout is None or pullout.empty:
         return "no pull-out rows", "", "open"
     median = dict(zip(pullout["config.object_name"], pullout["toughness_median_j"]))
-    if any(name not in median or not math.isfinite(median[name]) for name in TOUGHNESS_ORDER):
-        return f"objects measured: {sorted(median)}", "", "open"
+    missing = [name for name in TOUGHNESS_ORDER if name not in median or not math.isfinite(median[name])]
+    if missing:
+        known = [f"{name} {1e3 * median[name]:.3g} mJ" for name in TOUGHNESS_ORDER if name not in missing]
+        return ", ".join([*known, f"no toughness: {', '.join(missing)}"]), "", "open"
     values = [float(median[name]) for name in TOUGHNESS_ORDER]
     ratios = [v / REFERENCE_TOUGHNESS_J[name] for v, name in zip(values, TOUGHNESS_ORDER)]
     ordered = values[0] < values[1] < values[2]

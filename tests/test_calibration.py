@@ -42,6 +42,10 @@ def test_targets_are_met_missed_or_open_by_trial_count_and_intervals():
     assert few["status"].tolist() == ["open"] * 5
     excluded = calibration.target_table(rows((TREE, 0.0, 0, 8, 0), (TREE, off, 0, 0, 0)), pullout(0.01, 0.38, 0.2))
     assert excluded["status"].tolist() == ["missed", "open", "open", "open", "missed"]
+    # An object without a toughness (its pull-outs all unstable) leaves (d) open and is named.
+    partial = calibration.target_table(rows((TREE, 0.0, 0, 8, 0)), pullout(0.0, float("nan"), -0.0028))
+    assert partial["status"].tolist()[4] == "open"
+    assert partial["measured"][4] == "sphere 0 mJ, cylinder_51 -2.8 mJ, no toughness: eight_branch_tree"
 
 
 def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_range():
