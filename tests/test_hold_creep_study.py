@@ -58,3 +58,45 @@ def test_noslip_variants_are_refused_when_the_task_switches_noslip_per_phase(sho
     per_phase = short_spec(extra=("numerics.impratio=10", "numerics.impratio_phases=hold")).config
     with pytest.raises(ParameterError, match="'stiff'.*sets impratio.*impratio_phases"):
         branch_outcomes(spec.task, per_phase, spec.seed, {"stiff": {"impratio": 100}})
+
+
+def test_a_config_variant_from_the_lift_equals_the_trial_run_with_that_config(short_spec):
+    import dataclasses
+
+    from entangle_bench.runner import simulate
+    from entangle_bench.studies.hold_creep import branch_outcomes
+
+    # impratio 10 from the lift (configured) or from the hold only (the variant): both are 1 before the lift,
+    # so the branch point is the same state and the variant must replay the trial run with its config whole.
+    spec = short_spec("eight_branch_tree", extra=("numerics.impratio=10", "numerics.impratio_phases=lift,hold"))
+    from_hold = dataclasses.replace(
+        spec.config, numerics=dataclasses.replace(spec.config.numerics, impratio_phases=("hold",))
+    )
+    whole = {name: simulate(spec.task, config, spec.seed).row
+             for name, config in (("configured", spec.config), ("from hold", from_hold))}
+    rows = branch_outcomes(spec.task, spec.config, spec.seed,
+                           {"configured": {}, "from hold": {"numerics.impratio_phases": "hold"}}, start_phase="lift")
+    columns = ("lift_height_m", "max_hold_tilt_deg", "peak_lift_force_w", "support.ground_w")
+    for _, row in rows.iterrows():
+        for column in columns:
+            assert row[column] == whole[row["variant"]][column], (row["variant"], column)
+    # The variant changed the physics: impratio 1 in the lift is not the configured trial.
+    assert any(whole["configured"][c] != whole["from hold"][c] for c in columns)
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"contact.friction": "1"}, "contact.friction, which the model is built from.*numerics.impratio_phases"),
+        ({"numerics.impratio_phases": "grip"}, "impratio_phases.*'grip'.*lift"),
+        ({"numerics.impratio": "0.5"}, "numerics.impratio"),
+        ({"imp_ratio": 10}, "imp_ratio not an mjOption field.*impratio"),
+    ],
+)
+def test_bad_variants_are_refused_before_anything_simulates(short_spec, changes, message):
+    from entangle_bench.errors import ParameterError
+    from entangle_bench.studies.hold_creep import branch_outcomes
+
+    spec = short_spec()
+    with pytest.raises(ParameterError, match=message):
+        branch_outcomes(spec.task, spec.config, spec.seed, {"bad": changes})
