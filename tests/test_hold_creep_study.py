@@ -44,6 +44,20 @@ def test_a_branch_from_the_lift_reproduces_the_uninterrupted_trial(short_spec):
             assert row[column] == whole[column], column
 
 
+def test_a_continuation_after_an_unstable_one_starts_clean(short_spec):
+    from entangle_bench.runner import simulate
+    from entangle_bench.studies.hold_creep import branch_outcomes
+
+    spec = short_spec("eight_branch_tree")
+    whole = simulate(spec.task, spec.config, spec.seed).row
+    # A 50 ms step blows the first continuation up; its MuJoCo warnings must not stop the next one.
+    rows = branch_outcomes(spec.task, spec.config, spec.seed, {"blown": {"timestep": 0.05}, "configured": {}})
+    blown, configured = rows.iloc[0], rows.iloc[1]
+    assert blown["outcome"] == "unstable"
+    assert configured["outcome"] == whole["outcome"]
+    assert configured["lift_height_m"] == whole["lift_height_m"]
+
+
 def test_noslip_variants_are_refused_when_the_task_switches_noslip_per_phase(short_spec):
     from entangle_bench.errors import ParameterError
     from entangle_bench.studies.hold_creep import branch_outcomes

@@ -55,11 +55,15 @@ class SavedTrial:
         return cls(state, fields, copy.deepcopy(vars(env.task)), env._step_count)
 
     def restore(self, env: Any) -> None:
-        """Put the environment back into the saved state (mjOption is left as it is)."""
+        """Put the environment back into the saved state (mjOption is left as it is) with MuJoCo's warning
+        counters cleared: `mj_setState` keeps them, and a previous continuation's warnings would trip the
+        watchdog at the next one's first check."""
         model, data = env.physics.model.ptr, env.physics.data.ptr
         for name, value in self.model.items():
             getattr(model, name)[:] = value
         mujoco.mj_setState(model, data, self.state, mujoco.mjtState.mjSTATE_INTEGRATION)
+        for warning in data.warning:
+            warning.number, warning.lastinfo = 0, 0
         mujoco.mj_forward(model, data)
         vars(env.task).update(copy.deepcopy(self.task))
         env._step_count, env._reset_next_step = self.step_count, False
