@@ -40,7 +40,13 @@ def _changes(text: str) -> dict[str, object]:
         key, sep, value = item.partition("=")
         if not sep:
             raise SystemExit(f"--vary {text!r}: {item!r} must look like PATH=VALUE")
-        changes[key] = value if "." in key else float(value) if "." in value or "e" in value else int(value)
+        if "." in key:
+            changes[key] = value
+            continue
+        try:
+            changes[key] = int(value) if value.lstrip("-").isdigit() else float(value)
+        except ValueError:
+            raise SystemExit(f"--vary {text!r}: mjOption field {key} needs a number, got {value!r}") from None
     return changes
 
 
