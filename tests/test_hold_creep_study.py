@@ -98,6 +98,15 @@ def test_a_config_variant_from_the_lift_equals_the_trial_run_with_that_config(sh
     assert any(whole["configured"][c] != whole["from hold"][c] for c in columns)
 
 
+def test_a_variant_sets_fields_valid_only_together_in_any_order(short_spec):
+    # noslip_phases needs noslip_iterations > 0: set one after the other, the first would be refused.
+    spec = short_spec("eight_branch_tree")
+    summary, _ = hold_branches(spec.task, spec.config, spec.seed,
+                               {"noslip from the hold": {"numerics.noslip_phases": "hold",
+                                                         "numerics.noslip_iterations": "10"}}, hold_s=0.2)
+    assert summary["variant"].tolist() == ["noslip from the hold"]
+
+
 @pytest.mark.parametrize(
     ("changes", "message"),
     [

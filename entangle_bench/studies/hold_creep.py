@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 from dm_control.rl.control import PhysicsError
 
-from entangle_bench.config import replace_path
+from entangle_bench.config import apply_overrides
 from entangle_bench.errors import ParameterError
 from entangle_bench.presets import PER_PHASE_OPTIONS
 from entangle_bench.studies.branching import SavedTrial, option_variants, run_until
@@ -46,9 +46,9 @@ _OPTION_FIELDS = tuple(name for name in dir(mujoco.MjOption) if not name.startsw
 def _variant_configs(
     task: str, config: Any, seed: int, variants: Mapping[str, Mapping[str, Any]]
 ) -> dict[str, tuple[dict[str, Any], Any]]:
-    """Per variant, its mjOption changes and its config (`config` with its RUN_TIME_PATHS changes), checked
-    before anything simulates: unknown or build-time config paths, values out of range, phase names the task
-    lacks, and mjOption fields the variant's config switches per phase are refused."""
+    """Per variant, its mjOption changes and its config (`config` with its RUN_TIME_PATHS changes, text as `--set`
+    takes it), checked before anything simulates: unknown or build-time config paths, values out of range,
+    phase names the task lacks, and mjOption fields the variant's config switches per phase are refused."""
     prepared = {}
     for name, changes in variants.items():
         options = {key: value for key, value in changes.items() if "." not in key}
@@ -57,14 +57,14 @@ def _variant_configs(
             raise ParameterError(f"variant {name!r}: {', '.join(unknown)} not an mjOption field; known: "
                                  f"{', '.join(_OPTION_FIELDS)}")
         paths = {key: value for key, value in changes.items() if "." in key}
-        variant_config = config
-        for path, value in paths.items():
+        for path in paths:
             if path not in RUN_TIME_PATHS:
                 raise ParameterError(
                     f"variant {name!r} sets {path}, which the model is built from; a continuation may change "
                     f"mjOption fields or {', '.join(RUN_TIME_PATHS)}"
                 )
-            variant_config = replace_path(variant_config, path, value)
+        # Together, as `--set` applies them: noslip_phases is only valid with noslip_iterations > 0.
+        variant_config = apply_overrides(config, [f"{path}={value}" for path, value in paths.items()])
         if paths:
             TASKS.get(task).make_environment(variant_config, seed)  # the task checks its phase names
         for option, (field_name, _) in PER_PHASE_OPTIONS.items():
