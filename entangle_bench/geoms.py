@@ -117,3 +117,33 @@ class GeomClasses:
         """Number of geom pairs (n, 2) of each kind, every kind of KINDS present (zeros included)."""
         kinds = self.kinds(geom_pairs)
         return {kind: int(np.count_nonzero(kinds == kind)) for kind in KINDS}
+
+
+def lowest_z(model: mujoco.MjModel, data: mujoco.MjData, geom_ids: np.ndarray) -> float:
+    """Height of the lowest surface point of the geoms `geom_ids` in the current pose (after kinematics), m.
+
+    Exact for spheres, capsules, cylinders, boxes and meshes (their vertices: MuJoCo collides a mesh by its
+    convex hull, whose lowest point is a vertex); any other type is bounded below by its bounding box.
+    """
+    ids = np.asarray(geom_ids, dtype=int)
+    kind, size = model.geom_type[ids], model.geom_size[ids]
+    up = data.geom_xmat[ids].reshape(-1, 3, 3)[:, 2, :]  # world z of each geom axis
+    centre = data.geom_xpos[ids, 2]
+    tilt = np.abs(up[:, 2])
+    g = mujoco.mjtGeom
+    low = np.select(
+        [kind == g.mjGEOM_SPHERE, kind == g.mjGEOM_CAPSULE, kind == g.mjGEOM_CYLINDER, kind == g.mjGEOM_BOX],
+        [
+            centre - size[:, 0],
+            centre - tilt * size[:, 1] - size[:, 0],
+            centre - tilt * size[:, 1] - size[:, 0] * np.sqrt(np.clip(1.0 - tilt**2, 0.0, 1.0)),
+            centre - np.einsum("gj,gj->g", np.abs(up), size),
+        ],
+        default=centre + np.einsum("gj,gj->g", up, model.geom_aabb[ids, :3])
+        - np.einsum("gj,gj->g", np.abs(up), model.geom_aabb[ids, 3:]),
+    )
+    for i in np.flatnonzero(kind == g.mjGEOM_MESH):
+        mesh = model.geom_dataid[ids[i]]
+        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        low[i] = centre[i] + float(np.min(model.mesh_vert[start : start + count] @ up[i]))
+    return float(np.min(low))

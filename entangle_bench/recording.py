@@ -229,7 +229,7 @@ class TrialRecorder:
         if self._writer is None:
             return
         if complete:
-            keys = ("outcome", "failure_mode", "unstable_reason", "lift_height_m", "sim_time_s")
+            keys = ("outcome", "failure_mode", "unstable_reason", "lift_clearance_m", "sim_time_s")
             self._writer.add_metadata("result", {k: str(row[k]) for k in keys if k in row})
         self._writer.finish()
         self._handle.close()

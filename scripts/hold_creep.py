@@ -1,7 +1,7 @@
 """Does a held grasp creep? One trial to its hold, then the hold from that same state without and with noslip.
 
 With `--outcomes`, instead continue the whole rest of the trial from the start of the lift once per variant
-and print the task's outcome, rise, tilt and support per variant (does removing creep save the grasp? does a
+and print the task's outcome, clearance, tilt and support per variant (does removing creep save the grasp? does a
 trial that went unstable in the lift survive it with impratio only from the hold?).
 
 Variants: the configured solver, one per `--noslip` iteration count and one per `--vary` (space-separated
@@ -53,7 +53,7 @@ def _changes(text: str) -> dict[str, object]:
 #: `--outcomes` table columns after the outcome: row key, scale, decimals (a trial stopped before the hold has
 #: no support shares: printed as "-").
 _OUTCOME_COLUMNS = (
-    ("end_time_s", 1.0, 2), ("lift_height_m", 1e3, 1), ("max_hold_tilt_deg", 1.0, 1),
+    ("end_time_s", 1.0, 2), ("lift_clearance_m", 1e3, 1), ("max_hold_tilt_deg", 1.0, 1),
     ("support.part.branch_w", 1.0, 2), ("support.ground_w", 1.0, 2), ("max_penetration_m", 1e3, 2),
     ("wall_s", 1.0, 0),
 )
@@ -83,7 +83,7 @@ def main() -> None:
     if args.outcomes:
         rows = branch_outcomes(task, config, args.seed, variants, start_phase="lift")
         print(f"{task} seed {args.seed} {' '.join(args.overrides)}; from the start of the lift, per variant")
-        print("| variant | outcome | ended (s) | rise (mm) | hold tilt (deg) | branches (W) | ground (W) "
+        print("| variant | outcome | ended (s) | clearance (mm) | hold tilt (deg) | branches (W) | ground (W) "
               "| deepest (mm) | wall (s) |")
         print("|---|---|---|---|---|---|---|---|---|")
         for _, r in rows.iterrows():

@@ -20,7 +20,7 @@ from entangle_bench.runner import run_trials
 from entangle_bench.suite import SHORT_SEQUENCE
 
 #: Columns that must not depend on where a trial ran.
-SAME = ("trial_id", "task", "condition", "seed", "preset", "outcome", "failure_mode", "sim_time_s", "lift_height_m",
+SAME = ("trial_id", "task", "condition", "seed", "preset", "outcome", "failure_mode", "sim_time_s", "lift_clearance_m",
         "actuated.acn_total", "held.acn_total", "held.contacts.filament-object", "config.gripper.pressure_pa")
 
 

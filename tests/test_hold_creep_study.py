@@ -40,7 +40,7 @@ def test_a_branch_from_the_lift_reproduces_the_uninterrupted_trial(short_spec):
     # Saved and restored state (MuJoCo's, the task's, the step count) continues the trial exactly.
     for _, row in rows.iterrows():
         assert (row["outcome"], row["failure_mode"]) == (whole["outcome"], whole["failure_mode"])
-        for column in ("lift_height_m", "max_hold_tilt_deg", "peak_lift_force_w", "support.ground_w"):
+        for column in ("lift_clearance_m", "max_hold_tilt_deg", "peak_lift_force_w", "support.ground_w"):
             assert row[column] == whole[column], column
 
 
@@ -55,7 +55,7 @@ def test_a_continuation_after_an_unstable_one_starts_clean(short_spec):
     blown, configured = rows.iloc[0], rows.iloc[1]
     assert blown["outcome"] == "unstable"
     assert configured["outcome"] == whole["outcome"]
-    assert configured["lift_height_m"] == whole["lift_height_m"]
+    assert configured["lift_clearance_m"] == whole["lift_clearance_m"]
 
 
 def test_noslip_variants_are_refused_when_the_task_switches_noslip_per_phase(short_spec):
@@ -90,7 +90,7 @@ def test_a_config_variant_from_the_lift_equals_the_trial_run_with_that_config(sh
              for name, config in (("configured", spec.config), ("from hold", from_hold))}
     rows = branch_outcomes(spec.task, spec.config, spec.seed,
                            {"configured": {}, "from hold": {"numerics.impratio_phases": "hold"}}, start_phase="lift")
-    columns = ("lift_height_m", "max_hold_tilt_deg", "peak_lift_force_w", "support.ground_w")
+    columns = ("lift_clearance_m", "max_hold_tilt_deg", "peak_lift_force_w", "support.ground_w")
     for _, row in rows.iterrows():
         for column in columns:
             assert row[column] == whole[row["variant"]][column], (row["variant"], column)

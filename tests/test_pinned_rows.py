@@ -47,7 +47,7 @@ def test_row_is_unchanged(pinned, same_floating_point):
             assert row[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
         elif same_floating_point:
             assert row[key] == value, key
-        elif key == "lift_height_m":
+        elif key == "lift_clearance_m":
             assert row[key] == pytest.approx(value, rel=LIFT_TOLERANCE), key
         elif key == "unstable_time_s" and value is not None:
             assert row[key] == pytest.approx(value, abs=UNSTABLE_TIME_TOLERANCE_S), key

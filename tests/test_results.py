@@ -13,15 +13,15 @@ from entangle_bench.results import TrialLog, read_results, typed, write_trials
 
 ROWS = [
     {"trial_id": "a", "seed": 0, "success": True, "outcome": "success", "failure_mode": "",
-     "unstable_time_s": None, "lift_height_m": 0.031, "param.offset_m": 0.0,
+     "unstable_time_s": None, "lift_clearance_m": 0.031, "param.offset_m": 0.0,
      "config": {"object_name": "sphere", "phases": {"hold_time_s": 3.0}, "gripper": {"ring_counts": [8, 4]}}},
     {"trial_id": "b", "seed": 1, "success": False, "outcome": "unstable", "failure_mode": "",
-     "unstable_time_s": 0.3125, "lift_height_m": 1e-17, "param.offset_m": 0.01,
+     "unstable_time_s": 0.3125, "lift_clearance_m": 1e-17, "param.offset_m": 0.01,
      "config": {"object_name": "sphere", "phases": {"hold_time_s": 3.0}, "gripper": {"ring_counts": [8, 4]}},
      "first_unstable_reason": "nan_state"},
 ]
 DTYPES = {"trial_id": "string", "seed": "int64", "success": "bool", "outcome": "string", "failure_mode": "string",
-          "unstable_time_s": "float64", "lift_height_m": "float64", "param.offset_m": "float64",
+          "unstable_time_s": "float64", "lift_clearance_m": "float64", "param.offset_m": "float64",
           "config.object_name": "string", "config.phases.hold_time_s": "float64",
           "config.gripper.ring_counts": "string", "first_unstable_reason": "string"}
 

@@ -319,7 +319,7 @@ def run_trial(config: TrialConfig, seed: int, extra: tuple[str, ...] = ()) -> di
         failure_mode=trial["failure_mode"],
         unstable_reason=trial["unstable_reason"],
         success=trial["outcome"] == "success",
-        lift_height_m=trial["lift_height_m"],
+        lift_clearance_m=trial["lift_clearance_m"],
         sim_time_s=sim,
         cpu_per_sim_s=cpu / sim,
         wall_per_sim_s=wall / sim,

@@ -22,7 +22,7 @@ from dm_env import specs
 from entangle_bench import effects as fx
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
-from entangle_bench.geoms import KINDS
+from entangle_bench.geoms import KINDS, lowest_z
 from entangle_bench.gripper import GripperParams, bending_angles
 from entangle_bench.metrics.acn import acn_total
 from entangle_bench.metrics.contacts import ContactSummary, ObjectSupport, contact_summary, object_support
@@ -158,13 +158,8 @@ class ScenePhysics(dm_mujoco.Physics):
         return self.scene.object_info is not None and self.scene.object_info.orientation_free
 
     def object_lowest_z(self) -> float:
-        """Lower bound of the object's lowest point from its geoms' bounding boxes, m."""
-        model, data = self.model.ptr, self.data.ptr
-        ids = np.flatnonzero(self.scene.geoms.is_object)
-        rot = data.geom_xmat[ids].reshape(-1, 3, 3)
-        center = data.geom_xpos[ids] + np.einsum("gij,gj->gi", rot, model.geom_aabb[ids, :3])
-        reach = np.einsum("gj,gj->g", np.abs(rot[:, 2, :]), model.geom_aabb[ids, 3:])
-        return float(np.min(center[:, 2] - reach))
+        """Height of the object's lowest surface point (`geoms.lowest_z`), m."""
+        return lowest_z(self.model.ptr, self.data.ptr, np.flatnonzero(self.scene.geoms.is_object))
 
     def centerlines(self) -> np.ndarray:
         """(F, n + 1, 3) filament centerlines, m."""

@@ -97,8 +97,8 @@ class Schedule(DrapeSchedule):
 class _GraspTracking:
     """Running bookkeeping of the grasp, updated after every control step (SI units)."""
 
-    max_rise_m: float = 0.0
-    """Largest rise of the object's origin above its start so far, m."""
+    max_clearance_m: float = 0.0
+    """Largest height of the object's lowest point above the ground so far, m (0 for one that only rolls)."""
     lifted: bool = False
     """The object's lowest point cleared the success margin during the lift."""
     low_at_hold_start: bool = False
@@ -134,13 +134,10 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
     SCHEDULE = Schedule
     schedule: Schedule
     _tracking: _GraspTracking
-    _object_z0: float
-    """Height of the object's origin at the start, m."""
 
     def initialize_episode(self, physics: ScenePhysics) -> None:
-        """Set up the drape (`DrapeTask`); remember the object's height and reset the grasp tracking."""
+        """Set up the drape (`DrapeTask`) and reset the grasp tracking."""
         super().initialize_episode(physics)
-        self._object_z0 = physics.object_pose()[0][2]
         self._tracking = _GraspTracking()
 
     def phase(self, physics: ScenePhysics) -> str:
@@ -171,10 +168,9 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         pinched (held up, but by a pinch).
         """
         t, s, track, cfg = physics.time(), self.schedule, self._tracking, self.config
-        pos, quat = physics.object_pose()
-        low, tilt = physics.object_lowest_z(), object_tilt_deg(quat)
+        low, tilt = physics.object_lowest_z(), object_tilt_deg(physics.object_pose()[1])
         tilted = tilt > cfg.max_tilt_deg and not physics.object_orientation_free()
-        track.max_rise_m = max(track.max_rise_m, pos[2] - self._object_z0)
+        track.max_clearance_m = max(track.max_clearance_m, low)
         phase = s.phase(t - 1e-9)
         if phase in ("lift", "hold"):
             support = physics.object_support()
@@ -212,7 +208,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         track = self._tracking
         pinched_w = track.mean_support_n("pinched") / weight_n if weight_n > 0 else 0.0
         evidence = {
-            "max_rise_m": float(track.max_rise_m),
+            "max_clearance_m": float(track.max_clearance_m),
             "lifted": float(track.lifted),
             "hold_reached_s": track.hold_reached_s,
             "hold_failed_at_s": math.nan if track.hold_failed_at_s is None else track.hold_failed_at_s,
@@ -234,7 +230,11 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         return Outcome("failure", mode, t, evidence)
 
     def metrics(self, physics: ScenePhysics) -> dict[str, float]:
-        """Rise (m), hold reached (s), hold tilt (deg), peak lift force and the hold's support by source.
+        """Clearance (m), hold reached (s), hold tilt (deg), peak lift force and the hold's support by source.
+
+        `lift_clearance_m` is the largest height of the object's lowest point above the ground, the quantity the
+        success margin judges (rows logged before it carry `lift_height_m`, the rise of the object's origin,
+        which counts a roll of an object whose origin is on its surface as a lift).
 
         `peak_lift_force_w` and `support.<source>_w` are in units of the object's weight W; the support is the
         mean upward force over the hold by source (`part.<part>`: filaments on that part of the object,
@@ -243,7 +243,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         track = self._tracking
         weight = float(np.linalg.norm(physics.object_weight())) or math.nan
         row = {
-            "lift_height_m": track.max_rise_m,
+            "lift_clearance_m": track.max_clearance_m,
             "hold_time_reached_s": track.hold_reached_s,
             "max_hold_tilt_deg": track.max_hold_tilt_deg,
             "peak_lift_force_w": track.peak_lift_force_n / weight,

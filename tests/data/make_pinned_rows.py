@@ -62,13 +62,13 @@ COLUMNS = (
     "failure_mode",
     "unstable_reason",
     "unstable_time_s",
-    "lift_height_m",
+    "lift_clearance_m",
     "hold_time_reached_s",
     "sim_time_s",
 )
 
 #: Where the floating point differs from the generating machine, COLUMNS are compared exactly, but
-#: `lift_height_m` within LIFT_TOLERANCE (relative) and `unstable_time_s` within UNSTABLE_TIME_TOLERANCE_S.
+#: `lift_clearance_m` within LIFT_TOLERANCE (relative) and `unstable_time_s` within UNSTABLE_TIME_TOLERANCE_S.
 LIFT_TOLERANCE = 0.01
 UNSTABLE_TIME_TOLERANCE_S = 0.05
 

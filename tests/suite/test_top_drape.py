@@ -45,7 +45,7 @@ def test_schedule_phases_are_ordered():
 def test_zero_pressure_never_lifts(short_spec):
     row = run_trial(short_spec(extra=["gripper.pressure_pa=0"]))
     assert row["outcome"] == "failure" and row["failure_mode"] == "never_lifted"
-    assert row["lift_height_m"] < 0.005
+    assert row["lift_clearance_m"] < 0.005
 
 
 def test_object_welded_to_hub_is_a_success(monkeypatch, short_spec):
@@ -70,8 +70,8 @@ def test_object_welded_to_hub_is_a_success(monkeypatch, short_spec):
     monkeypatch.setattr(ScenePhysics, "step", carried_step)
     result = simulate(spec.task, spec.config, spec.seed)
     row, task = result.row, result.env.task
-    assert row["outcome"] == "success", {k: row[k] for k in ("failure_mode", "lift_height_m", "hold_time_reached_s")}
-    assert row["lift_height_m"] >= 0.95 * spec.config.phases.lift_height_m
+    assert row["outcome"] == "success", {k: row[k] for k in ("failure_mode", "lift_clearance_m", "hold_time_reached_s")}
+    assert row["lift_clearance_m"] >= 0.95 * spec.config.phases.lift_height_m
     assert task.outcome.success and task.outcome.evidence["lifted"] == 1.0
     assert task.outcome.decided_at_s == pytest.approx(task.schedule.t_release, abs=spec.config.control_timestep_s)
     assert np.isnan(task.outcome.evidence["hold_failed_at_s"])
