@@ -58,6 +58,21 @@ def test_a_continuation_after_an_unstable_one_starts_clean(short_spec):
     assert configured["lift_clearance_m"] == whole["lift_clearance_m"]
 
 
+def test_a_variant_with_a_shorter_timestep_runs_to_the_episode_end(short_spec):
+    from entangle_bench.studies.hold_creep import branch_outcomes
+    from entangle_bench.suite import TASKS
+
+    # dm_control's step limit counts control steps of the configured timestep: half the timestep would end the
+    # episode halfway through, before the task decides (it crashed with "'NoneType' has no attribute 'status'").
+    spec = short_spec("eight_branch_tree")
+    rows = branch_outcomes(spec.task, spec.config, spec.seed,
+                           {"half": {"timestep": spec.config.numerics.timestep_s / 2}}, start_phase="lift")
+    row = rows.iloc[0]
+    assert row["outcome"] in ("success", "failure")
+    env = TASKS.get(spec.task).make_environment(spec.config, spec.seed)
+    assert row["end_time_s"] == pytest.approx(env.task.schedule.boundaries()[-1][1], abs=1e-6)
+
+
 def test_noslip_variants_are_refused_when_the_task_switches_noslip_per_phase(short_spec):
     from entangle_bench.errors import ParameterError
     from entangle_bench.studies.hold_creep import branch_outcomes

@@ -149,12 +149,13 @@ def branch_outcomes(
     Each continuation runs the scripted policy through the environment under a watchdog started at the
     branch point with the task's limits; one row per variant: outcome, failure mode (or unstable reason), the
     task's metrics (lift, tilt, support by source...), the deepest contact (m), the simulated time it ended at
-    (s) and wall s.
+    (s) and wall s. Every continuation runs to the episode's end in simulated time, whatever its timestep.
     """
     prepared = _variant_configs(task, config, seed, variants)
     env, saved = _branch_point(task, config, seed, start_phase)
     physics = env.physics
     model, data = physics.model.ptr, physics.data.ptr
+    end_s = env.task.schedule.boundaries()[-1][1]
     rows = []
     for name in option_variants(model, {name: options for name, (options, _) in prepared.items()}):
         _continue_as(env, saved, prepared[name][1])
@@ -162,11 +163,12 @@ def branch_outcomes(
         watchdog = Watchdog(model, data, env.task.watchdog_limits(), env.task.actuation_energy_j())
         row: dict[str, Any] = {"variant": name, "unstable_reason": ""}
         try:
-            while True:
-                time_step = env.step(env.task.scripted_action(physics))
+            while data.time < end_s - 1e-9:
+                # dm_control counts the episode in control steps of the configured timestep; a variant with a
+                # shorter one needs more of them, so the episode ends by simulated time, never by a reset.
+                env._reset_next_step = False
+                env.step(env.task.scripted_action(physics))
                 watchdog.check(model, data)
-                if time_step.last():
-                    break
         except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
             row.update(outcome="unstable", failure_mode="", unstable_reason=str(exc))
         else:
