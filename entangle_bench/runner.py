@@ -136,17 +136,19 @@ def simulate(
     limits: WatchdogLimits | None = None,
     observers: Sequence[Observer] = (),
     state_dir: Path | None = None,
+    state_id: str | None = None,
 ) -> TrialResult:
     """Run one trial of a registered task with its scripted policy under the watchdog; return row and final state.
 
     `limits` replaces the task's watchdog limits. Observers see the environment after reset (before the
     watchdog takes its reference energy) and after every control step. With `state_dir`, snapshots and the
-    task's per-step series are saved there as `<trial_id>_<snapshot>.npz` and `<trial_id>_series.npz`.
+    task's per-step series are saved there as `<state_id>_<snapshot>.npz` and `<state_id>_series.npz`
+    (`state_id`: default this trial's id).
     """
     env = TASKS.get(task).make_environment(config, seed)
     physics, bench_task = env.physics, env.task
     model, data = physics.model.ptr, physics.data.ptr
-    trial = trial_id(task, config, seed)
+    trial = state_id or trial_id(task, config, seed)
     time_step = env.reset()
     row: dict[str, Any] = {"outcome": "", "failure_mode": "", "unstable_reason": "", "unstable_time_s": None}
     series: dict[str, list[float]] = {}
@@ -256,7 +258,8 @@ def run_trial(
 
     With `retry_unstable`, an unstable trial is rerun once with half the timestep (without observers) and
     the row says so. With `folder`, the snapshots and series are saved under `folder/states/` and the
-    files `watch` asks for under `folder/recordings/` and `folder/videos/`.
+    files `watch` asks for under `folder/recordings/` and `folder/videos/`; a retry's saved states replace the
+    unstable run's under the trial's id, so they always belong to the run the row scores.
     """
     start = time.perf_counter()
     state_dir = None if folder is None else Path(folder) / STATES
@@ -269,7 +272,10 @@ def run_trial(
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
         halved = dataclasses.replace(spec.config, numerics=numerics)
         first_reason = row["unstable_reason"]
-        row = simulate(spec.task, halved, spec.seed, limits=limits, state_dir=state_dir).row
+        if state_dir is not None:
+            for stale in state_dir.glob(f"{spec.trial_id}_*.npz"):
+                stale.unlink()
+        row = simulate(spec.task, halved, spec.seed, limits=limits, state_dir=state_dir, state_id=spec.trial_id).row
         row["first_unstable_reason"] = first_reason
         retried = True
     return {

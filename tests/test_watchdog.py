@@ -168,8 +168,9 @@ def test_mocap_lift_raises_the_bound():
     assert watchdog.energy_bound_j - bound0 == pytest.approx(0.5 * 9.81 * 0.1 + 0.5 * 0.5 * 1.0**2)
 
 
-def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so():
-    """E = 10 MPa, 16 segments at 6 ms: outside the envelope and unstable; at 3 ms, stable."""
+def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_path):
+    """E = 10 MPa, 16 segments at 6 ms: outside the envelope and unstable; at 3 ms, stable. The retry's saved
+    states lie under the trial's id (the row's), not under the halved config's."""
     from entangle_bench.runner import TrialSpec, run_trial
     from entangle_bench.stability import envelope_warnings
     from entangle_bench.suite import SHORT_SEQUENCE as SHORT
@@ -188,7 +189,11 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so():
     assert row["outcome"] == "unstable" and row["success"] is False and row["failure_mode"] == ""
     assert row["unstable_reason"] and 0.0 < row["unstable_time_s"] < row["sim_time_s"] + 1e-9
     assert row["retried_half_timestep"] is False
-    retried = run_trial(spec, retry_unstable=True)
+    retried = run_trial(spec, retry_unstable=True, folder=tmp_path)
     assert retried["retried_half_timestep"] is True
+    saved = [p.name for p in (tmp_path / "states").iterdir()]
+    assert saved and all(name.startswith(f"{spec.trial_id}_") for name in saved)
+    snapshots = {name.removeprefix(f"{spec.trial_id}_").removesuffix(".npz") for name in saved} - {"series"}
+    assert all(any(key.startswith(f"{snap}.") for key in retried) for snap in snapshots)
     assert retried["first_unstable_reason"] == row["unstable_reason"]
     assert retried["outcome"] in ("success", "failure")
