@@ -273,7 +273,7 @@ def run_trial(
         halved = dataclasses.replace(spec.config, numerics=numerics)
         first_reason = row["unstable_reason"]
         if state_dir is not None:
-            for stale in state_dir.glob(f"{spec.trial_id}_*.npz"):
+            for stale in state_dir.glob(state_path(state_dir, spec.trial_id, "*").name):
                 stale.unlink()
         row = simulate(spec.task, halved, spec.seed, limits=limits, state_dir=state_dir, state_id=spec.trial_id).row
         row["first_unstable_reason"] = first_reason
