@@ -213,14 +213,15 @@ class Watch:
     video_period_s: float = 0.1
     video_size: tuple[int, int] = (640, 480)
 
-    def observers(self, spec: TrialSpec, folder: Path) -> list[Observer]:
-        """New observers of one trial writing under `folder` (made per trial: they hold files and renderers)."""
+    def observers(self, spec: TrialSpec, folder: Path, timestep_s: float) -> list[Observer]:
+        """New observers of one run of a trial, at `timestep_s` (s), writing under `folder` (made per run: they
+        hold files and renderers; the recording's metadata names the timestep, which a retry halves)."""
         out: list[Observer] = []
         if self.record:
             from entangle_bench.recording import TrialRecorder
 
             metadata = {"task": spec.task, "seed": str(spec.seed), "condition": spec.condition,
-                        "trial_id": spec.trial_id}
+                        "trial_id": spec.trial_id, "timestep_s": repr(timestep_s)}
             out.append(TrialRecorder(folder / RECORDINGS / f"{spec.trial_id}.mcap", self.record_period_s, metadata))
         if self.video:
             from entangle_bench.video import TrialVideo
@@ -256,16 +257,17 @@ def run_trial(
 ) -> dict[str, Any]:
     """Run one trial and return its results row (identity, outcome, metrics, snapshots, config, versions).
 
-    With `retry_unstable`, an unstable trial is rerun once with half the timestep (without observers) and
-    the row says so. With `folder`, the snapshots and series are saved under `folder/states/` and the
-    files `watch` asks for under `folder/recordings/` and `folder/videos/`; a retry's saved states replace the
-    unstable run's under the trial's id, so they always belong to the run the row scores.
+    With `retry_unstable`, an unstable trial is rerun once with half the timestep and the row says so. With
+    `folder`, the snapshots and series are saved under `folder/states/` and the files `watch` asks for under
+    `folder/recordings/` and `folder/videos/`; a retry's saved states, recording and video replace the unstable
+    run's under the trial's id, so they always show the run the row scores. `observers` (made once, by the
+    caller) see the first run only.
     """
     start = time.perf_counter()
     state_dir = None if folder is None else Path(folder) / STATES
     watchers = list(observers)
     if folder is not None:
-        watchers += watch.observers(spec, Path(folder))
+        watchers += watch.observers(spec, Path(folder), spec.config.numerics.timestep_s)
     row = simulate(spec.task, spec.config, spec.seed, limits=limits, observers=watchers, state_dir=state_dir).row
     retried = False
     if row["outcome"] == "unstable" and retry_unstable:
@@ -275,7 +277,9 @@ def run_trial(
         if state_dir is not None:
             for stale in state_dir.glob(state_path(state_dir, spec.trial_id, "*").name):
                 stale.unlink()
-        row = simulate(spec.task, halved, spec.seed, limits=limits, state_dir=state_dir, state_id=spec.trial_id).row
+        rewatch = [] if folder is None else watch.observers(spec, Path(folder), halved.numerics.timestep_s)
+        row = simulate(spec.task, halved, spec.seed, limits=limits, observers=rewatch, state_dir=state_dir,
+                       state_id=spec.trial_id).row
         row["first_unstable_reason"] = first_reason
         retried = True
     return {

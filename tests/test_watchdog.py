@@ -170,8 +170,12 @@ def test_mocap_lift_raises_the_bound():
 
 def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_path):
     """E = 10 MPa, 16 segments at 6 ms: outside the envelope and unstable; at 3 ms, stable. The retry's saved
-    states lie under the trial's id (the row's), not under the halved config's."""
-    from entangle_bench.runner import TrialSpec, run_trial
+    states lie under the trial's id (the row's), not under the halved config's, and its recording replaces
+    the unstable run's."""
+    from mcap.reader import make_reader
+
+    from entangle_bench.recording import read_recording
+    from entangle_bench.runner import TrialSpec, Watch, run_trial
     from entangle_bench.stability import envelope_warnings
     from entangle_bench.suite import SHORT_SEQUENCE as SHORT
     from entangle_bench.suite import resolve_config
@@ -189,7 +193,7 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_
     assert row["outcome"] == "unstable" and row["success"] is False and row["failure_mode"] == ""
     assert row["unstable_reason"] and 0.0 < row["unstable_time_s"] < row["sim_time_s"] + 1e-9
     assert row["retried_half_timestep"] is False
-    retried = run_trial(spec, retry_unstable=True, folder=tmp_path)
+    retried = run_trial(spec, retry_unstable=True, folder=tmp_path, watch=Watch(record=True))
     assert retried["retried_half_timestep"] is True
     saved = [p.name for p in (tmp_path / "states").iterdir()]
     assert saved and all(name.startswith(f"{spec.trial_id}_") for name in saved)
@@ -197,3 +201,10 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_
     assert all(any(key.startswith(f"{snap}.") for key in retried) for snap in snapshots)
     assert retried["first_unstable_reason"] == row["unstable_reason"]
     assert retried["outcome"] in ("success", "failure")
+    (recording,) = (tmp_path / "recordings").iterdir()
+    assert recording.name == f"{spec.trial_id}.mcap"
+    with open(recording, "rb") as handle:
+        metadata = {m.name: m.metadata for m in make_reader(handle).iter_metadata()}
+    assert metadata["trial"]["timestep_s"] == "0.003" and metadata["result"]["outcome"] == retried["outcome"]
+    last = list(read_recording(recording))[-1]["time_s"]
+    assert retried["sim_time_s"] - 0.05 - 1e-9 <= last <= retried["sim_time_s"] and last > row["unstable_time_s"]
