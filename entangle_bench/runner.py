@@ -273,14 +273,14 @@ def run_trial(
     if row["outcome"] == "unstable" and retry_unstable:
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
         halved = dataclasses.replace(spec.config, numerics=numerics)
-        first_reason = row["unstable_reason"]
+        first_reason, first_time = row["unstable_reason"], row["unstable_time_s"]
         if state_dir is not None:
             for stale in state_dir.glob(state_path(state_dir, spec.trial_id, "*").name):
                 stale.unlink()
         rewatch = [] if folder is None else watch.observers(spec, Path(folder), halved.numerics.timestep_s)
         row = simulate(spec.task, halved, spec.seed, limits=limits, observers=rewatch, state_dir=state_dir,
                        state_id=spec.trial_id).row
-        row["first_unstable_reason"] = first_reason
+        row.update(first_unstable_reason=first_reason, first_unstable_time_s=first_time)
         retried = True
     return {
         **_identity(spec),

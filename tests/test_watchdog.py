@@ -200,6 +200,7 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_
     snapshots = {name.removeprefix(f"{spec.trial_id}_").removesuffix(".npz") for name in saved} - {"series"}
     assert all(any(key.startswith(f"{snap}.") for key in retried) for snap in snapshots)
     assert retried["first_unstable_reason"] == row["unstable_reason"]
+    assert retried["first_unstable_time_s"] == row["unstable_time_s"]
     assert retried["outcome"] in ("success", "failure")
     (recording,) = (tmp_path / "recordings").iterdir()
     assert recording.name == f"{spec.trial_id}.mcap"
