@@ -36,6 +36,8 @@ from entangle_bench.errors import FileFormatError
 LOG_NAME, CSV_NAME, PARQUET_NAME = "trials.jsonl", "trials.csv", "trials.parquet"
 #: Outcome of a trial that could not be run (its worker died on every attempt, or it raised); never scored.
 FAILED = "failed"
+#: Outcome of a trial the watchdog stopped or MuJoCo could not continue; never scored.
+UNSTABLE = "unstable"
 #: Result columns that hold text even when every row leaves them empty.
 TEXT_COLUMNS = frozenset(
     {"trial_id", "task", "condition", "preset", "outcome", "failure_mode", "unstable_reason",
@@ -137,8 +139,8 @@ def _jsonable(value: Any) -> Any:
 def read_log(path: str | os.PathLike) -> list[dict[str, Any]]:
     """All complete rows of a trial log, one per trial id (a torn last line is skipped).
 
-    A trial's row is its first one, unless that one is `failed` and a later one is not: a rerun that ran a
-    failed trial replaces its failed row.
+    A trial's row is its first one, unless a later one supersedes it (`_supersedes`): a rerun that ran a
+    failed trial, or retried an `unstable` one at half the timestep, replaces its row.
     """
     path = Path(path)
     if not path.exists():
@@ -150,9 +152,21 @@ def read_log(path: str | os.PathLike) -> list[dict[str, Any]]:
                 break
             row = json.loads(line)
             first = rows.get(row["trial_id"])
-            if first is None or (first.get("outcome") == FAILED and row.get("outcome") != FAILED):
+            if first is None or _supersedes(row, first):
                 rows[row["trial_id"]] = row
     return list(rows.values())
+
+
+def _needs_retry(row: dict[str, Any]) -> bool:
+    """Whether a row is `unstable` and was not yet retried at half the timestep."""
+    return row.get("outcome") == UNSTABLE and not row.get("retried_half_timestep")
+
+
+def _supersedes(later: dict[str, Any], first: dict[str, Any]) -> bool:
+    """Whether a later row of a trial replaces its first: a run of a failed trial, or the retry of an unstable one."""
+    if first.get("outcome") == FAILED:
+        return later.get("outcome") != FAILED
+    return _needs_retry(first) and bool(later.get("retried_half_timestep"))
 
 
 class TrialLog:
@@ -177,9 +191,11 @@ class TrialLog:
         """All complete rows, first occurrence per trial id."""
         return read_log(self.path)
 
-    def done_ids(self) -> set[str]:
-        """Ids of the trials the log holds a result of (failed trials are not done)."""
-        return {row["trial_id"] for row in self.rows() if row.get("outcome") != FAILED}
+    def done_ids(self, retry_unstable: bool = False) -> set[str]:
+        """Ids of the trials the log holds a result of (failed trials are not done; with `retry_unstable`,
+        neither are `unstable` ones not yet retried at half the timestep)."""
+        return {row["trial_id"] for row in self.rows()
+                if row.get("outcome") != FAILED and not (retry_unstable and _needs_retry(row))}
 
     def append(self, row: dict[str, Any]) -> None:
         """Append one row as a single atomic line."""

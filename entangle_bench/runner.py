@@ -355,7 +355,8 @@ def run_trials(
     watch: Watch = Watch(),
     observers: Callable[[TrialSpec], Sequence[Observer]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run every spec whose trial id is not yet in `log` (or only as failed); return the new rows.
+    """Run every spec whose trial id is not yet in `log` (or only as failed, or with `retry_unstable` only as
+    `unstable` without a retry, whose retried row then replaces it); return the new rows.
 
     The driver alone writes: for each trial, as it finishes, its files into the log's folder (atomically),
     then its row into the log, so a logged row always has its files. A trial whose worker died on every
@@ -363,7 +364,7 @@ def run_trials(
     next rerun. `observers` makes extra observers per trial (see `TrialWorker`).
     """
     specs = list(specs)
-    done = log.done_ids()
+    done = log.done_ids(retry_unstable)
     todo = [s for s in specs if s.trial_id not in done]
     bar = tqdm(
         total=len(specs),

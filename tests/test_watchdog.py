@@ -168,15 +168,9 @@ def test_mocap_lift_raises_the_bound():
     assert watchdog.energy_bound_j - bound0 == pytest.approx(0.5 * 9.81 * 0.1 + 0.5 * 0.5 * 1.0**2)
 
 
-def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_path):
-    """E = 10 MPa, 16 segments at 6 ms: outside the envelope and unstable; at 3 ms, stable. The retry's saved
-    states lie under the trial's id (the row's), not under the halved config's, and its recording replaces
-    the unstable run's."""
-    from mcap.reader import make_reader
-
-    from entangle_bench.recording import read_recording
-    from entangle_bench.runner import TrialSpec, Watch, run_trial
-    from entangle_bench.stability import envelope_warnings
+def _stiff_spec():
+    """E = 10 MPa, 16 segments at 6 ms (short sequence, fast preset): unstable; at 3 ms, stable."""
+    from entangle_bench.runner import TrialSpec
     from entangle_bench.suite import SHORT_SEQUENCE as SHORT
     from entangle_bench.suite import resolve_config
 
@@ -187,8 +181,21 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_
         "numerics.timestep_s=0.006",
     ]
     config = resolve_config("eight_branch_tree", "fast", SHORT + stiff)
-    assert any("timestep" in w for w in envelope_warnings(config))
-    spec = TrialSpec("top_drape/eight_branch_tree", "stiff", config, 0, "fast")
+    return TrialSpec("top_drape/eight_branch_tree", "stiff", config, 0, "fast")
+
+
+def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_path):
+    """E = 10 MPa, 16 segments at 6 ms: outside the envelope and unstable; at 3 ms, stable. The retry's saved
+    states lie under the trial's id (the row's), not under the halved config's, and its recording replaces
+    the unstable run's."""
+    from mcap.reader import make_reader
+
+    from entangle_bench.recording import read_recording
+    from entangle_bench.runner import Watch, run_trial
+    from entangle_bench.stability import envelope_warnings
+
+    spec = _stiff_spec()
+    assert any("timestep" in w for w in envelope_warnings(spec.config))
     row = run_trial(spec)
     assert row["outcome"] == "unstable" and row["success"] is False and row["failure_mode"] == ""
     assert row["unstable_reason"] and 0.0 < row["unstable_time_s"] < row["sim_time_s"] + 1e-9
@@ -209,3 +216,22 @@ def test_unstable_trial_is_never_scored_and_the_half_timestep_retry_says_so(tmp_
     assert metadata["trial"]["timestep_s"] == "0.003" and metadata["result"]["outcome"] == retried["outcome"]
     last = list(read_recording(recording))[-1]["time_s"]
     assert retried["sim_time_s"] - 0.05 - 1e-9 <= last <= retried["sim_time_s"] and last > row["unstable_time_s"]
+
+
+def test_a_rerun_with_retry_unstable_retries_the_logged_unstable_trials_and_its_row_replaces_theirs(tmp_path):
+    from entangle_bench.executors import make_executor
+    from entangle_bench.results import TrialLog
+    from entangle_bench.runner import run_trial, run_trials
+
+    spec = _stiff_spec()
+    log = TrialLog(tmp_path / "trials.jsonl")
+    log.append(run_trial(spec))
+    assert log.rows()[0]["outcome"] == "unstable" and log.done_ids() == {spec.trial_id}
+    assert run_trials([spec], log, make_executor(1), progress=False) == []  # without the flag: done
+    assert log.done_ids(retry_unstable=True) == set()
+    (new,) = run_trials([spec], log, make_executor(1), retry_unstable=True, progress=False)
+    assert new["retried_half_timestep"] is True and new["outcome"] in ("success", "failure")
+    (row,) = TrialLog(log.path).rows()
+    assert row["outcome"] == new["outcome"] and row["retried_half_timestep"] is True
+    assert log.done_ids(retry_unstable=True) == {spec.trial_id}
+    assert run_trials([spec], log, make_executor(1), retry_unstable=True, progress=False) == []

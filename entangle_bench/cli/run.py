@@ -52,7 +52,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="comma-separated centering offsets in m (on a suite: replaces its offset_m sweep)")
     p.add_argument("--seed", default=None, metavar="N", help="first seed, a non-negative integer (default: the "
                                                              "suite's, 0 for a task)")
-    p.add_argument("--retry-unstable", action="store_true", help="rerun unstable trials at dt/2")
+    p.add_argument("--retry-unstable", action="store_true",
+                   help="rerun unstable trials at dt/2, also those a previous run logged as unstable")
     p.add_argument("--record", action="store_true",
                    help="record every trial as a Foxglove MCAP file under OUT/recordings")
     p.add_argument("--video", action="store_true", help="write every trial as an MP4 under OUT/videos (headless)")
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
         run_trials(specs, log, executor, retry_unstable=args.retry_unstable, progress=not args.no_progress,
                    watch=Watch(record=args.record, video=args.video))
     except (KeyboardInterrupt, Interrupted):
-        done = len(log.done_ids() & wanted)
+        done = len(log.done_ids(args.retry_unstable) & wanted)
         print(f"entangle-bench: run interrupted: {done} of {len(specs)} trials are in {log.path}; "
               "rerun the same command to run the others", file=sys.stderr)
         raise
