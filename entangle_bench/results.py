@@ -188,7 +188,7 @@ class TrialLog:
                 handle.truncate(data.rfind(b"\n") + 1)
 
     def rows(self) -> list[dict[str, Any]]:
-        """All complete rows, first occurrence per trial id."""
+        """All complete rows, one per trial id (`read_log`: the first, unless a later one supersedes it)."""
         return read_log(self.path)
 
     def done_ids(self, retry_unstable: bool = False) -> set[str]:

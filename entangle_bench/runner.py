@@ -46,7 +46,7 @@ from entangle_bench.config import to_flat_dict
 from entangle_bench.errors import OutcomeError
 from entangle_bench.executors import Executor, WorkerLost
 from entangle_bench.observers import Observer
-from entangle_bench.results import FAILED, TrialLog
+from entangle_bench.results import FAILED, UNSTABLE, TrialLog
 from entangle_bench.suite import TASKS
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
@@ -89,7 +89,7 @@ class TrialResult:
     @property
     def stable(self) -> bool:
         """Whether the trial ran to its end without the watchdog or MuJoCo stopping it."""
-        return self.row["outcome"] != "unstable"
+        return self.row["outcome"] != UNSTABLE
 
     @property
     def reason(self) -> str:
@@ -180,8 +180,8 @@ def simulate(
                             atomic_save_npz(state_path(state_dir, trial, name), **snap.arrays)
         except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
             # FatalError: MuJoCo aborted the step, e.g. an exploding state overflowed the constraint arena.
-            row.update(outcome="unstable", unstable_reason=_unstable_reason(exc), unstable_time_s=physics.time())
-        if row["outcome"] != "unstable":
+            row.update(outcome=UNSTABLE, unstable_reason=_unstable_reason(exc), unstable_time_s=physics.time())
+        if row["outcome"] != UNSTABLE:
             outcome = bench_task.outcome
             if outcome is None:
                 raise OutcomeError(f"task {task} ended at t = {physics.time():.4f} s without deciding its outcome")
@@ -270,7 +270,7 @@ def run_trial(
         watchers += watch.observers(spec, Path(folder), spec.config.numerics.timestep_s)
     row = simulate(spec.task, spec.config, spec.seed, limits=limits, observers=watchers, state_dir=state_dir).row
     retried = False
-    if row["outcome"] == "unstable" and retry_unstable:
+    if row["outcome"] == UNSTABLE and retry_unstable:
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
         halved = dataclasses.replace(spec.config, numerics=numerics)
         first_reason, first_time = row["unstable_reason"], row["unstable_time_s"]
@@ -387,6 +387,6 @@ def run_trials(
         rows.append(result.row)
         bar.update(1)
         outcomes = collections.Counter(r["outcome"] for r in rows)
-        bar.set_postfix(successes=outcomes["success"], unstable=outcomes["unstable"], failed=outcomes[FAILED])
+        bar.set_postfix(successes=outcomes["success"], unstable=outcomes[UNSTABLE], failed=outcomes[FAILED])
     bar.close()
     return rows
