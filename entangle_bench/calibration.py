@@ -21,6 +21,7 @@ from entangle_bench.metrics.pullout import REFERENCE_TOUGHNESS_J
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.objects.registry import object_info
 from entangle_bench.presets import PER_PHASE_OPTIONS
+from entangle_bench.results import SCORED, SUCCESS, UNSTABLE
 from entangle_bench.suite import TASKS, resolve_config
 from entangle_bench.suite.pullout import PullSchedule
 from entangle_bench.suite.top_drape import Schedule
@@ -76,8 +77,8 @@ class Rate:
 def condition_rate(rows: pd.DataFrame, task: str, offset_m: float = 0.0, tolerance_m: float = 5e-4) -> Rate:
     """Success of `task` at centering offset `offset_m` (m, within `tolerance_m`) over the rows' scored trials."""
     group = rows[(rows["task"] == task) & ((rows["config.offset_m"] - offset_m).abs() <= tolerance_m)]
-    scored = group[group["outcome"].isin(["success", "failure"])]
-    return Rate(int((scored["outcome"] == "success").sum()), len(scored), int((group["outcome"] == "unstable").sum()))
+    scored = group[group["outcome"].isin(SCORED)]
+    return Rate(int((scored["outcome"] == SUCCESS).sum()), len(scored), int((group["outcome"] == UNSTABLE).sum()))
 
 
 def tree_offset_m() -> float:

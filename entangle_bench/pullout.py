@@ -29,7 +29,7 @@ from entangle_bench.geoms import KINDS
 from entangle_bench.metrics.curve_file import open_npz
 from entangle_bench.metrics.pullout import CurvePoint, pullout_table
 from entangle_bench.plots import plot_pull_curves, plot_toughness
-from entangle_bench.results import atomic_write_csv
+from entangle_bench.results import UNSTABLE, atomic_write_csv
 from entangle_bench.runner import state_path
 
 
@@ -103,7 +103,7 @@ def write_report(rows: pd.DataFrame, folder: str | os.PathLike, seed: int = 0) -
     paths = [folder / "pullout.csv", folder / "pullout_curves.png", folder / "pullout_toughness.png"]
     atomic_write_csv(table, paths[0])
     curves: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-    for _, row in pulls[pulls["outcome"] != "unstable"].iterrows():
+    for _, row in pulls[pulls["outcome"] != UNSTABLE].iterrows():
         path = state_path(folder / "states", row["trial_id"], "series")
         if path.exists():
             curve = read_curve(path)

@@ -38,6 +38,9 @@ LOG_NAME, CSV_NAME, PARQUET_NAME = "trials.jsonl", "trials.csv", "trials.parquet
 FAILED = "failed"
 #: Outcome of a trial the watchdog stopped or MuJoCo could not continue; never scored.
 UNSTABLE = "unstable"
+#: Outcomes a task decided (`suite.base.Outcome.status`): the only ones a success rate or toughness scores.
+SUCCESS, FAILURE = "success", "failure"
+SCORED = (SUCCESS, FAILURE)
 #: Result columns that hold text even when every row leaves them empty.
 TEXT_COLUMNS = frozenset(
     {"trial_id", "task", "condition", "preset", "outcome", "failure_mode", "unstable_reason",

@@ -46,7 +46,7 @@ from entangle_bench.config import to_flat_dict
 from entangle_bench.errors import OutcomeError
 from entangle_bench.executors import Executor, WorkerLost
 from entangle_bench.observers import Observer
-from entangle_bench.results import FAILED, UNSTABLE, TrialLog
+from entangle_bench.results import FAILED, SUCCESS, UNSTABLE, TrialLog
 from entangle_bench.suite import TASKS
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
@@ -284,7 +284,7 @@ def run_trial(
         retried = True
     return {
         **_identity(spec),
-        "success": row["outcome"] == "success",
+        "success": row["outcome"] == SUCCESS,
         **row,
         "retried_half_timestep": retried,
         "wall_time_s": time.perf_counter() - start,
@@ -387,6 +387,6 @@ def run_trials(
         rows.append(result.row)
         bar.update(1)
         outcomes = collections.Counter(r["outcome"] for r in rows)
-        bar.set_postfix(successes=outcomes["success"], unstable=outcomes[UNSTABLE], failed=outcomes[FAILED])
+        bar.set_postfix(successes=outcomes[SUCCESS], unstable=outcomes[UNSTABLE], failed=outcomes[FAILED])
     bar.close()
     return rows

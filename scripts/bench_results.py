@@ -16,23 +16,33 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from entangle_bench.results import CSV_NAME, PARQUET_NAME, atomic_write_csv, read_results, typed, write_parquet
+from entangle_bench.results import (
+    CSV_NAME,
+    FAILURE,
+    PARQUET_NAME,
+    SUCCESS,
+    UNSTABLE,
+    atomic_write_csv,
+    read_results,
+    typed,
+    write_parquet,
+)
 
 
 def synthetic_rows(n: int, seed: int = 0) -> pd.DataFrame:
     """N trial-like rows: 8 text, 2 int, 1 bool, 40 float, 12 count and 50 configuration columns."""
     rng = np.random.default_rng(seed)
-    outcome = rng.choice(["success", "failure", "unstable"], n, p=[0.3, 0.65, 0.05])
+    outcome = rng.choice([SUCCESS, FAILURE, UNSTABLE], n, p=[0.3, 0.65, 0.05])
     columns: dict[str, object] = {
         "trial_id": [f"{v:016x}" for v in rng.integers(0, 2**63, n)],
         "task": "top_drape/eight_branch_tree",
         "condition": [f"eight_branch_tree offset_m={v:.3f}" for v in rng.choice([0.0, 0.01, 0.02], n)],
         "preset": "balanced",
         "seed": np.arange(n),
-        "success": outcome == "success",
+        "success": outcome == SUCCESS,
         "outcome": outcome,
-        "failure_mode": np.where(outcome == "failure", "never_lifted", ""),
-        "unstable_reason": np.where(outcome == "unstable", "speed>20m/s", ""),
+        "failure_mode": np.where(outcome == FAILURE, "never_lifted", ""),
+        "unstable_reason": np.where(outcome == UNSTABLE, "speed>20m/s", ""),
         "version.mujoco": "3.17.0",
         "version.entangle_bench": "0.1.0",
         "sim_time_s": rng.uniform(2, 8, n),

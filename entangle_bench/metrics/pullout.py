@@ -31,6 +31,7 @@ from scipy import stats
 
 from entangle_bench.errors import ParameterError
 from entangle_bench.filament import REFERENCE_PRESSURE_PA
+from entangle_bench.results import FAILED, UNSTABLE
 
 #: Entanglement toughness measured by Becker et al. (PNAS 2022) at 172 kPa, J, by the library's object: a 10 cm
 #: sphere, a simple branched structure (the eight-branch tree) and a vertical 51 mm cylinder.
@@ -205,11 +206,11 @@ def pullout_table(rows: pd.DataFrame, by: Sequence[str], seed: int = 0) -> pd.Da
     out = []
     for key, group in rows.groupby(list(by), sort=True, dropna=False):
         key = key if isinstance(key, tuple) else (key,)
-        scored = group[~group["outcome"].isin(["unstable", "failed"]) & group["pull_result"].isin(PULL_RESULTS)]
+        scored = group[~group["outcome"].isin([UNSTABLE, FAILED]) & group["pull_result"].isin(PULL_RESULTS)]
         entry = dict(zip(by, key)) | {
             "trials": len(group),
-            "unstable": int((group["outcome"] == "unstable").sum()),
-            "failed": int((group["outcome"] == "failed").sum()),
+            "unstable": int((group["outcome"] == UNSTABLE).sum()),
+            "failed": int((group["outcome"] == FAILED).sum()),
             "scored": len(scored),
         }
         entry |= {result: int((scored["pull_result"] == result).sum()) for result in PULL_RESULTS}

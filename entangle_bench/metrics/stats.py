@@ -6,6 +6,7 @@ import pandas as pd
 from scipy.stats import binomtest
 
 from entangle_bench.errors import ParameterError
+from entangle_bench.results import FAILED, SCORED, SUCCESS, UNSTABLE
 
 
 def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
@@ -28,16 +29,16 @@ def success_table(rows: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     out = []
     for key, group in rows.groupby(by, sort=True, dropna=False):
         key = key if isinstance(key, tuple) else (key,)
-        stable = group[group["outcome"].isin(["success", "failure"])]
-        n, k = len(stable), int((stable["outcome"] == "success").sum())
+        stable = group[group["outcome"].isin(SCORED)]
+        n, k = len(stable), int((stable["outcome"] == SUCCESS).sum())
         low, high = wilson_interval(k, n)
-        modes = stable.loc[stable["outcome"] != "success", "failure_mode"].value_counts()
+        modes = stable.loc[stable["outcome"] != SUCCESS, "failure_mode"].value_counts()
         out.append(
             dict(zip(by, key))
             | {
                 "trials": len(group),
-                "unstable": int((group["outcome"] == "unstable").sum()),
-                "failed": int((group["outcome"] == "failed").sum()),
+                "unstable": int((group["outcome"] == UNSTABLE).sum()),
+                "failed": int((group["outcome"] == FAILED).sum()),
                 "successes": k,
                 "success_rate": k / n if n else float("nan"),
                 "ci95_low": low,

@@ -55,7 +55,7 @@ from entangle_bench import resources  # noqa: E402
 from entangle_bench.atomic import atomic_savefig, atomic_write_text  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.presets import PRESETS, Numerics, Preset  # noqa: E402
-from entangle_bench.results import atomic_write_csv, markdown  # noqa: E402
+from entangle_bench.results import SUCCESS, UNSTABLE, atomic_write_csv, markdown  # noqa: E402
 from entangle_bench.rods.case import RodCase, centerline_error, load_case  # noqa: E402
 from entangle_bench.rods.comparison import (  # noqa: E402
     cached_result,
@@ -318,7 +318,7 @@ def run_trial(config: TrialConfig, seed: int, extra: tuple[str, ...] = ()) -> di
         outcome=trial["outcome"],
         failure_mode=trial["failure_mode"],
         unstable_reason=trial["unstable_reason"],
-        success=trial["outcome"] == "success",
+        success=trial["outcome"] == SUCCESS,
         lift_clearance_m=trial["lift_clearance_m"],
         sim_time_s=sim,
         cpu_per_sim_s=cpu / sim,
@@ -340,7 +340,7 @@ def trial_deviation(rows: pd.DataFrame, fine: pd.DataFrame) -> pd.DataFrame:
         out[name] = np.nan
     for i, row in rows.iterrows():
         probe = "cost probe" in row["label"]  # a shortened trial: only its cost is comparable
-        if probe or row["seed"] not in fine.index or row["outcome"] == "unstable" or pd.isna(row.get("object_x")):
+        if probe or row["seed"] not in fine.index or row["outcome"] == UNSTABLE or pd.isna(row.get("object_x")):
             continue
         ref = fine.loc[row["seed"]]
         pos = np.array([row[f"object_{c}"] for c in "xyz"])
@@ -462,7 +462,7 @@ def trial_summary(trials: pd.DataFrame) -> pd.DataFrame:
         n_segments=("n_segments", "first"),
         timestep_s=("timestep_s", "first"),
         success_rate=("success", "mean"),
-        unstable=("outcome", lambda s: int((s == "unstable").sum())),
+        unstable=("outcome", lambda s: int((s == UNSTABLE).sum())),
         position_dev_mm=("position_dev_m", lambda s: 1e3 * s.mean()),
         angle_dev_deg=("angle_dev_rad", lambda s: math.degrees(s.mean())),
         acn_mean=("acn", "mean"),

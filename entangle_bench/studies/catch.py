@@ -22,6 +22,7 @@ from dm_control.rl.control import PhysicsError
 
 from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.stats import wilson_interval
+from entangle_bench.results import SCORED, SUCCESS
 from entangle_bench.studies.branching import run_until
 from entangle_bench.suite import resolve_config
 from entangle_bench.watchdog import Watchdog, WatchdogTripped
@@ -79,12 +80,12 @@ def catch_outcome_table(rows: pd.DataFrame, edges: Sequence[int] = (0, 22, 30, 4
     """Success of scored trials (`outcome` success or failure) by their filament–object contacts at the start of
     the lift, binned at `edges` (each bin [edge, next edge), the last one open): trials, successes, rate and
     its Wilson 95 % interval."""
-    scored = rows[rows["outcome"].isin(["success", "failure"])]
+    scored = rows[rows["outcome"].isin(SCORED)]
     contacts = scored[f"{SNAPSHOT}.contacts.filament-object"]
     out = []
     for low, high in zip(edges, [*edges[1:], np.inf]):
         group = scored[(contacts >= low) & (contacts < high)]
-        n, k = len(group), int((group["outcome"] == "success").sum())
+        n, k = len(group), int((group["outcome"] == SUCCESS).sum())
         ci = wilson_interval(k, n) if n else (np.nan, np.nan)
         label = f"{low}–{int(high) - 1}" if np.isfinite(high) else f"≥ {low}"
         out.append({"contacts": label, "trials": n, "successes": k, "rate": k / n if n else np.nan,

@@ -29,6 +29,7 @@ from dm_control.rl.control import PhysicsError
 from entangle_bench.config import apply_overrides
 from entangle_bench.errors import ParameterError
 from entangle_bench.presets import PER_PHASE_OPTIONS
+from entangle_bench.results import UNSTABLE
 from entangle_bench.studies.branching import SavedTrial, option_variants, run_until
 from entangle_bench.suite import TASKS
 from entangle_bench.suite.top_drape import object_tilt_deg
@@ -170,7 +171,7 @@ def branch_outcomes(
                 env.step(env.task.scripted_action(physics))
                 watchdog.check(model, data)
         except (WatchdogTripped, PhysicsError, mujoco.FatalError) as exc:
-            row.update(outcome="unstable", failure_mode="", unstable_reason=str(exc))
+            row.update(outcome=UNSTABLE, failure_mode="", unstable_reason=str(exc))
         else:
             outcome = env.task.outcome
             row.update(outcome=outcome.status, failure_mode=outcome.failure_mode)
