@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -248,6 +249,21 @@ def pullout_overrides(overrides: list[str], task: str = "pullout_eight_branch_tr
             override = f"{path}={','.join(_pullout_phases(coerce_text(value, tuple[str, ...], path)))}"
         kept.append(override)
     return kept
+
+
+def run_commands(out: Path, trials: int, pullout_trials: int, workers: int, overrides: list[str]) -> list[list[str]]:
+    """The `entangle-bench` argument lists that run a candidate (`overrides` on top of the calibration suite's):
+    its calibration suite with `trials` seeds per condition into `out`, then its pull-out suite with
+    `pullout_trials` seeds and the same gripper, contact and numerics into `out`/pullout.
+
+    Both retry unstable trials at dt/2, also those a stopped run logged: the trials that break are not missing at
+    random (at 0.25 ms every tree trial that broke with the object already up succeeded when retried), so scoring
+    without them biases success and toughness low.
+    """
+    pull = pullout_overrides([*candidate_overrides(), *overrides])
+    runs = [(CALIBRATION_SUITE, trials, out, overrides), (PULLOUT_SUITE, pullout_trials, out / "pullout", pull)]
+    return [["run", suite, "--trials", str(n), "--workers", str(workers), "--out", str(folder), "--retry-unstable",
+             *(item for override in sets for item in ("--set", override))] for suite, n, folder, sets in runs]
 
 
 def _pullout_phases(names: tuple[str, ...]) -> list[str]:

@@ -3,8 +3,8 @@
 The candidate is the `calibration` suite's settings plus `--set` overrides (e.g. a solver). With `--run N` it
 first runs the suite with N seeded trials per condition into OUT and the pull-out suite with the same gripper,
 contact and numerics (`--pullout-trials`, default 5) into OUT/pullout; both resume where a previous run
-stopped. It then writes OUT/targets.md and OUT/parameters.md (calibration table: value, default, source,
-physical range) and prints both.
+stopped and retry unstable trials at half the timestep. It then writes OUT/targets.md and OUT/parameters.md
+(calibration table: value, default, source, physical range) and prints both.
 
 Usage: python scripts/calibrate.py [--out results/calibration] [--run 20] [--pullout-trials 5] [--set a.b=v ...]
 """
@@ -34,12 +34,10 @@ def main() -> int:
     args = parser.parse_args()
     settings = [*calibration.candidate_overrides(), *args.overrides]
     if args.run:
-        extra = [item for override in args.overrides for item in ("--set", override)]
-        code = cli(["run", calibration.CALIBRATION_SUITE, "--trials", str(args.run), "--workers", str(args.workers),
-                    "--out", str(args.out), *extra])
-        pull = [item for override in calibration.pullout_overrides(settings) for item in ("--set", override)]
-        code = code or cli(["run", calibration.PULLOUT_SUITE, "--trials", str(args.pullout_trials),
-                            "--workers", str(args.workers), "--out", str(args.out / "pullout"), *pull])
+        code = 0
+        for command in calibration.run_commands(args.out, args.run, args.pullout_trials, args.workers,
+                                                args.overrides):
+            code = code or cli(command)
         if code:
             return code
     log = args.out / "trials.jsonl"  # the log holds every finished trial, also of a run stopped early

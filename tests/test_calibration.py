@@ -4,6 +4,7 @@ import pandas as pd
 import pytest
 
 from entangle_bench import calibration
+from entangle_bench.cli import build_parser
 from entangle_bench.suite import TASKS, resolve_config
 from entangle_bench.suites import load_suite
 
@@ -72,3 +73,19 @@ def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_ra
     assert impratio == ["numerics.impratio_phases=clamp,pull"]
     config = resolve_config("pullout_eight_branch_tree", None, pull)
     TASKS.get("pullout_eight_branch_tree").make_environment(config, 0)  # the phases are the pull-out's own
+
+
+def test_a_calibration_run_retries_unstable_trials_and_pulls_out_with_the_candidates_settings(tmp_path):
+    suite_run, pull_run = (build_parser().parse_args(command) for command in calibration.run_commands(
+        tmp_path, 20, 5, 2, ["contact.friction=1.5", "phases.lift_height_m=0.06"]))
+    assert (suite_run.target, pull_run.target) == (calibration.CALIBRATION_SUITE, calibration.PULLOUT_SUITE)
+    assert (suite_run.trials, pull_run.trials, suite_run.workers) == ("20", "5", "2")
+    assert (suite_run.out, pull_run.out) == (tmp_path, tmp_path / "pullout")
+    # Both retry: dropping the trials that break would bias the rates and the toughness low.
+    assert suite_run.retry_unstable and pull_run.retry_unstable
+    assert suite_run.overrides == ["contact.friction=1.5", "phases.lift_height_m=0.06"]
+    # The pull-out gets the calibration suite's gripper with the candidate's override last (it wins), no lift.
+    assert pull_run.overrides == calibration.pullout_overrides([*calibration.candidate_overrides(),
+                                                                "contact.friction=1.5"])
+    assert pull_run.overrides[-1] == "contact.friction=1.5"
+    assert resolve_config("pullout_eight_branch_tree", None, pull_run.overrides).contact.friction == 1.5
