@@ -34,12 +34,10 @@ def main() -> int:
     args = parser.parse_args()
     settings = [*calibration.candidate_overrides(), *args.overrides]
     if args.run:
-        code = 0
         for command in calibration.run_commands(args.out, args.run, args.pullout_trials, args.workers,
                                                 args.overrides):
-            code = code or cli(command)
-        if code:
-            return code
+            if code := cli(command):
+                return code  # the pull-out does not run after a failed calibration run
     log = args.out / "trials.jsonl"  # the log holds every finished trial, also of a run stopped early
     try:
         trials = read_results(log if log.exists() else args.out)
