@@ -99,6 +99,8 @@ class _GraspTracking:
 
     max_clearance_m: float = 0.0
     """Largest height of the object's lowest point above the ground so far, m (0 for one that only rolls)."""
+    min_hold_clearance_m: float = math.inf
+    """Smallest height of the object's lowest point above the ground during the hold, m (inf before the hold)."""
     lifted: bool = False
     """The object's lowest point cleared the success margin during the lift."""
     low_at_hold_start: bool = False
@@ -180,6 +182,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         if phase == "hold":
             self._add_support(support)
             track.max_hold_tilt_deg = max(track.max_hold_tilt_deg, tilt)
+            track.min_hold_clearance_m = min(track.min_hold_clearance_m, low)
             if track.hold_reached_s == 0.0 and low < cfg.success_margin_m:
                 track.low_at_hold_start = True
             if track.hold_failed_at_s is None:
@@ -234,7 +237,8 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
 
         `lift_clearance_m` is the largest height of the object's lowest point above the ground, the quantity the
         success margin judges (rows logged before it carry `lift_height_m`, the rise of the object's origin,
-        which counts a roll of an object whose origin is on its surface as a lift).
+        which counts a roll of an object whose origin is on its surface as a lift); `hold_min_clearance_m` the
+        smallest over the hold (NaN without a hold), which tells a drop from an object held up but below the margin.
 
         `peak_lift_force_w` and `support.<source>_w` are in units of the object's weight W; the support is the
         mean upward force over the hold by source (`part.<part>`: filaments on that part of the object,
@@ -244,6 +248,7 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
         weight = float(np.linalg.norm(physics.object_weight())) or math.nan
         row = {
             "lift_clearance_m": track.max_clearance_m,
+            "hold_min_clearance_m": track.min_hold_clearance_m if track.support_samples else math.nan,
             "hold_time_reached_s": track.hold_reached_s,
             "max_hold_tilt_deg": track.max_hold_tilt_deg,
             "peak_lift_force_w": track.peak_lift_force_n / weight,

@@ -46,6 +46,7 @@ def test_zero_pressure_never_lifts(short_spec):
     row = run_trial(short_spec(extra=["gripper.pressure_pa=0"]))
     assert row["outcome"] == "failure" and row["failure_mode"] == "never_lifted"
     assert row["lift_clearance_m"] < 0.005
+    assert row["hold_min_clearance_m"] == pytest.approx(0.0, abs=1e-3)  # resting on the ground (soft contact)
 
 
 def test_object_welded_to_hub_is_a_success(monkeypatch, short_spec):
@@ -72,6 +73,7 @@ def test_object_welded_to_hub_is_a_success(monkeypatch, short_spec):
     row, task = result.row, result.env.task
     assert row["outcome"] == "success", {k: row[k] for k in ("failure_mode", "lift_clearance_m", "hold_time_reached_s")}
     assert row["lift_clearance_m"] >= 0.95 * spec.config.phases.lift_height_m
+    assert spec.config.success_margin_m <= row["hold_min_clearance_m"] <= row["lift_clearance_m"]
     assert task.outcome.success and task.outcome.evidence["lifted"] == 1.0
     assert task.outcome.decided_at_s == pytest.approx(task.schedule.t_release, abs=spec.config.control_timestep_s)
     assert np.isnan(task.outcome.evidence["hold_failed_at_s"])
