@@ -200,6 +200,10 @@ class TrialLog:
         return {row["trial_id"] for row in self.rows()
                 if row.get("outcome") != FAILED and not (retry_unstable and _needs_retry(row))}
 
+    def unretried_unstable(self) -> dict[str, dict[str, Any]]:
+        """The `unstable` rows not yet retried at half the timestep, by trial id."""
+        return {row["trial_id"]: row for row in self.rows() if _needs_retry(row)}
+
     def append(self, row: dict[str, Any]) -> None:
         """Append one row as a single atomic line."""
         line = (json.dumps({k: _jsonable(v) for k, v in row.items()}, sort_keys=True) + "\n").encode()

@@ -29,7 +29,7 @@ import platform
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -246,48 +246,71 @@ def _identity(spec: TrialSpec) -> dict[str, Any]:
     }
 
 
+@dataclass(frozen=True)
+class FirstAttempt:
+    """An unstable first attempt of a trial, as a log records it: why and when (simulated s) it stopped, and
+    its wall time (s)."""
+
+    reason: str
+    time_s: float
+    wall_time_s: float
+
+    @classmethod
+    def of(cls, row: dict[str, Any]) -> FirstAttempt:
+        """The first attempt a logged `unstable` row records."""
+        return cls(row["unstable_reason"], row["unstable_time_s"], row.get("wall_time_s") or 0.0)
+
+
 def run_trial(
     spec: TrialSpec,
     *,
     limits: WatchdogLimits | None = None,
     retry_unstable: bool = False,
+    first_attempt: FirstAttempt | None = None,
     folder: Path | None = None,
     watch: Watch = Watch(),
     observers: Sequence[Observer] = (),
 ) -> dict[str, Any]:
     """Run one trial and return its results row (identity, outcome, metrics, snapshots, config, versions).
 
-    With `retry_unstable`, an unstable trial is rerun once with half the timestep and the row says so. With
-    `folder`, the snapshots and series are saved under `folder/states/` and the files `watch` asks for under
+    With `retry_unstable`, an unstable trial is rerun once with half the timestep and the row says so;
+    `first_attempt` (an unstable run a log already holds) goes straight to that retry, since a trial is
+    deterministic and its first run would only repeat, and its wall time counts in the row's. With `folder`,
+    the snapshots and series are saved under `folder/states/` and the files `watch` asks for under
     `folder/recordings/` and `folder/videos/`; a retry's saved states, recording and video replace the unstable
     run's under the trial's id, so they always show the run the row scores. `observers` (made once, by the
-    caller) see the first run only.
+    caller) see the first run made.
     """
     start = time.perf_counter()
     state_dir = None if folder is None else Path(folder) / STATES
-    watchers = list(observers)
-    if folder is not None:
-        watchers += watch.observers(spec, Path(folder), spec.config.numerics.timestep_s)
-    row = simulate(spec.task, spec.config, spec.seed, limits=limits, observers=watchers, state_dir=state_dir).row
-    retried = False
-    if row["outcome"] == UNSTABLE and retry_unstable:
+    first = first_attempt if retry_unstable else None
+    caller_observers = list(observers)
+    if first is None:
+        watchers = caller_observers + ([] if folder is None else
+                                       watch.observers(spec, Path(folder), spec.config.numerics.timestep_s))
+        caller_observers = []
+        row = simulate(spec.task, spec.config, spec.seed, limits=limits, observers=watchers, state_dir=state_dir).row
+        if row["outcome"] == UNSTABLE and retry_unstable:
+            first = FirstAttempt.of(row)
+    retried = first is not None
+    if first is not None:
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
         halved = dataclasses.replace(spec.config, numerics=numerics)
-        first_reason, first_time = row["unstable_reason"], row["unstable_time_s"]
         if state_dir is not None:
             for stale in state_dir.glob(state_path(state_dir, spec.trial_id, "*").name):
                 stale.unlink()
-        rewatch = [] if folder is None else watch.observers(spec, Path(folder), halved.numerics.timestep_s)
+        rewatch = caller_observers + ([] if folder is None else
+                                      watch.observers(spec, Path(folder), halved.numerics.timestep_s))
         row = simulate(spec.task, halved, spec.seed, limits=limits, observers=rewatch, state_dir=state_dir,
                        state_id=spec.trial_id).row
-        row.update(first_unstable_reason=first_reason, first_unstable_time_s=first_time)
-        retried = True
+        row.update(first_unstable_reason=first.reason, first_unstable_time_s=first.time_s)
+    logged_wall = first_attempt.wall_time_s if retried and first_attempt is not None else 0.0
     return {
         **_identity(spec),
         "success": row["outcome"] == SUCCESS,
         **row,
         "retried_half_timestep": retried,
-        "wall_time_s": time.perf_counter() - start,
+        "wall_time_s": time.perf_counter() - start + logged_wall,
         **versions(),
         **{f"config.{k}": v for k, v in to_flat_dict(spec.config).items()},
     }
@@ -330,14 +353,18 @@ class TrialWorker:
     watch: Watch = Watch()
     observers: Callable[[TrialSpec], Sequence[Observer]] | None = None
     """Extra observers made per trial (test probes); must be picklable."""
+    first_attempts: Mapping[str, FirstAttempt] = field(default_factory=dict)
+    """Unstable first attempts a log already holds, by trial id: with `retry_unstable` those trials go
+    straight to the retry."""
 
     def __call__(self, spec: TrialSpec) -> TrialOutput:
         extra = list(self.observers(spec)) if self.observers is not None else []
         with tempfile.TemporaryDirectory(prefix="entangle-bench-trial-") as scratch:
             folder = Path(scratch)
             try:
-                row = run_trial(spec, retry_unstable=self.retry_unstable, folder=folder, watch=self.watch,
-                                observers=extra)
+                row = run_trial(spec, retry_unstable=self.retry_unstable,
+                                first_attempt=self.first_attempts.get(spec.trial_id), folder=folder,
+                                watch=self.watch, observers=extra)
             except Exception as exc:  # any bug in any task: record it and go on with the sweep
                 return TrialOutput(failed_row(spec, f"error: {type(exc).__name__}: {exc}"))
             files = {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
@@ -356,7 +383,8 @@ def run_trials(
     observers: Callable[[TrialSpec], Sequence[Observer]] | None = None,
 ) -> list[dict[str, Any]]:
     """Run every spec whose trial id is not yet in `log` (or only as failed, or with `retry_unstable` only as
-    `unstable` without a retry, whose retried row then replaces it); return the new rows.
+    `unstable` without a retry: that one goes straight to the retry at half the timestep, whose row then
+    replaces it); return the new rows.
 
     The driver alone writes: for each trial, as it finishes, its files into the log's folder (atomically),
     then its row into the log, so a logged row always has its files. A trial whose worker died on every
@@ -376,7 +404,9 @@ def run_trials(
     )
     rows: list[dict[str, Any]] = []
     folder = log.path.parent
-    worker = TrialWorker(retry_unstable, watch, observers)
+    logged = log.unretried_unstable() if retry_unstable else {}
+    first_attempts = {s.trial_id: FirstAttempt.of(logged[s.trial_id]) for s in todo if s.trial_id in logged}
+    worker = TrialWorker(retry_unstable, watch, observers, first_attempts)
     for spec, result in executor.map_unordered(worker, todo):
         if isinstance(result, WorkerLost):
             result = TrialOutput(failed_row(spec, result.reason))

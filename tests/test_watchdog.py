@@ -235,3 +235,37 @@ def test_a_rerun_with_retry_unstable_retries_the_logged_unstable_trials_and_its_
     assert row["outcome"] == new["outcome"] and row["retried_half_timestep"] is True
     assert log.done_ids(retry_unstable=True) == {spec.trial_id}
     assert run_trials([spec], log, make_executor(1), retry_unstable=True, progress=False) == []
+
+
+def test_a_logged_unstable_trial_goes_straight_to_the_retry_and_scores_as_a_fresh_retry(tmp_path):
+    """A trial is deterministic, so the retry of a logged `unstable` row skips the first attempt: the only run
+    made is at half the timestep, and its row equals a fresh run's retry (a second method) in every result
+    column; its wall time includes the logged attempt's."""
+    from entangle_bench.executors import make_executor
+    from entangle_bench.results import TrialLog
+    from entangle_bench.runner import run_trial, run_trials
+
+    spec = _stiff_spec()
+    log = TrialLog(tmp_path / "trials.jsonl")
+    first = run_trial(spec)
+    log.append(first)
+    timesteps: list[float] = []
+
+    class Timesteps:
+        def start(self, env):
+            timesteps.append(env.physics.model.opt.timestep)
+
+        def step(self, env):
+            pass
+
+        def finish(self, row, complete):
+            pass
+
+    (new,) = run_trials([spec], log, make_executor(1), retry_unstable=True, progress=False,
+                        observers=lambda _spec: [Timesteps()])
+    assert timesteps == [0.003]
+    fresh = run_trial(spec, retry_unstable=True)
+    assert fresh["retried_half_timestep"] is True
+    assert new["wall_time_s"] >= first["wall_time_s"]
+    assert {k: v for k, v in new.items() if k != "wall_time_s"} == {
+        k: v for k, v in fresh.items() if k != "wall_time_s"}
