@@ -169,6 +169,23 @@ def test_cli_run_task_in_process(tmp_path, capsys):
     assert main(["run", "no_such_thing", "--out", str(tmp_path)]) == 2
 
 
+def test_a_run_that_adds_seeds_summarizes_every_seed_of_its_conditions_and_only_those(tmp_path):
+    """Seed 0, then seed 1 into the same folder: the summary counts both; a run of another configuration into
+    that folder counts only its own trial."""
+    import pandas as pd
+
+    base = ["run", "sphere", "--trials", "1", "--workers", "1", "--preset", "fast", "--no-progress",
+            "--out", str(tmp_path)] + [a for s in SHORT for a in ("--set", s)]
+    assert main(base) == 0
+    assert main(base + ["--seed", "1"]) == 0
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert summary["trials"].tolist() == [2]
+    assert sorted(pd.read_csv(tmp_path / "trials.csv")["seed"]) == [0, 1]
+    assert main(base + ["--set", "phases.hold_time_s=0.2"]) == 0
+    assert pd.read_csv(tmp_path / "summary.csv")["trials"].tolist() == [1]
+    assert len(TrialLog(tmp_path / "trials.jsonl").rows()) == 3
+
+
 def test_rerun_skips_finished_trials(tmp_path, short_spec):
     specs = [short_spec("sphere", seed) for seed in (0, 1)]
     log = TrialLog(tmp_path / "trials.jsonl")

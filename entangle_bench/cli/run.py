@@ -1,5 +1,8 @@
 """`entangle-bench run SUITE|TASK`: seeded trials, resumable, with a summary table and plot.
 
+The rows, summary and plots cover every seed of the run's conditions the output folder's log holds, so a run
+that adds seeds to a folder summarizes them all.
+
 Everything the command line asks for is checked before any trial simulates: numbers and lists, the suite or
 task, every condition's configuration, the output folder (created and written to), the executor. Pull-out
 trials add the pull-out summary `pullout.csv` and its figures (`entangle_bench.pullout.write_report`).
@@ -24,7 +27,7 @@ from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import PRESETS
 from entangle_bench.pullout import write_report
 from entangle_bench.results import FAILED, LOG_NAME, TrialLog, atomic_write_csv, write_trials
-from entangle_bench.runner import Watch, run_trials
+from entangle_bench.runner import TrialSpec, Watch, run_trials, trial_id
 from entangle_bench.stability import envelope_warnings
 from entangle_bench.suite.gripper_task import GripperTaskConfig
 
@@ -128,6 +131,13 @@ def _suite(args: argparse.Namespace) -> suites.Suite:
             raise UnknownNameError("suite or task", args.target, suite_error.known + task_error.known) from None
 
 
+def _suite_ids(specs: list[TrialSpec], seeds: set[int]) -> set[str]:
+    """Trial ids of the specs' conditions at every seed in `seeds`: the rows of this suite a log holds,
+    those of earlier runs with other seeds included."""
+    conditions = {spec.trial_id: (spec.task, spec.config) for spec in specs}.values()
+    return {trial_id(task, config, seed) for task, config in conditions for seed in seeds}
+
+
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, run the missing trials, append rows, print and save the summary."""
     workers = _integer("--workers", args.workers, 1)
@@ -151,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
               "rerun the same command to run the others", file=sys.stderr)
         raise
     rows = log.frame()
-    rows = rows[rows["trial_id"].isin(wanted)]
+    rows = rows[rows["trial_id"].isin(_suite_ids(specs, {int(seed) for seed in rows["seed"].dropna()}))]
     write_trials(rows, out)
     params = [c for c in rows.columns if c.startswith("param.")]
     summary = success_table(rows, ["condition"])
@@ -173,7 +183,8 @@ def run(args: argparse.Namespace) -> int:
         with pd.option_context("display.width", 160, "display.max_columns", 20):
             print(table[columns].to_string(index=False, float_format=lambda v: f"{v:.3g}"))
         print("pull-out: " + "  ".join(str(p) for p in report))
-    print(f"rows: {out / 'trials.csv'}  summary: {out / 'summary.csv'}")
+    print(f"rows: {out / 'trials.csv'}  summary: {out / 'summary.csv'}"
+          + (f" (every seed of these conditions in the log: {len(rows)} trials)" if len(rows) > len(specs) else ""))
     failed = rows[rows["outcome"] == FAILED]
     if len(failed):
         print(f"entangle-bench: {len(failed)} trial(s) failed to run (outcome '{FAILED}', not scored; see "
