@@ -15,7 +15,8 @@ outright (Linux parent-death signal).
 
 - `SerialExecutor`: this process; no isolation, so a death is the driver's death.
 - `ProcessExecutor(workers)`: local spawned processes, one item at a time each, so a death is attributed to
-  exactly the item its worker was running.
+  exactly the item its worker was running; each keeps its temporary files in a folder the driver removes
+  once the process is gone, so a killed worker leaves none behind.
 - `RayExecutor(address=None)`: Ray tasks (local Ray by default, an existing cluster with an address); Ray
   reruns a task whose worker died (`max_retries`); results return through Ray's object store to the driver.
   Ray is an optional dependency (`pip install 'entangle-bench[cluster]'`).
@@ -30,8 +31,10 @@ import importlib.util
 import multiprocessing
 import multiprocessing.connection
 import os
+import shutil
 import signal
 import sys
+import tempfile
 import threading
 import traceback
 from collections.abc import Callable, Iterator, Sequence
@@ -87,11 +90,14 @@ def _die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
-def _worker_main(conn: multiprocessing.connection.Connection, fn: Callable[[Any], Any], parent: int) -> None:
-    """A worker process: run fn on each (index, item) received, send (index, ok, result) back; None stops."""
+def _worker_main(conn: multiprocessing.connection.Connection, fn: Callable[[Any], Any], parent: int,
+                 scratch: str) -> None:
+    """A worker process: run fn on each (index, item) received, send (index, ok, result) back; None stops.
+    Its temporary files go under `scratch`, which the driver removes once the process is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the driver's; one pending since start-up is dropped
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     _die_with_parent(parent)
+    tempfile.tempdir = os.environ["TMPDIR"] = scratch
     while True:
         try:
             message = conn.recv()
@@ -140,7 +146,9 @@ class _Worker:
 
     def __init__(self, context: Any, fn: Callable[[Any], Any]):
         self.conn, child = context.Pipe()
-        self.process = context.Process(target=_worker_main, args=(child, fn, os.getpid()), daemon=True)
+        # The process's temporary folder, removed with the process: a killed worker leaves no files behind.
+        self.scratch = tempfile.mkdtemp(prefix="entangle-bench-worker-")
+        self.process = context.Process(target=_worker_main, args=(child, fn, os.getpid(), self.scratch), daemon=True)
         with _sigint_held():  # inherited through exec: a Ctrl-C while the worker starts up is the driver's
             self.process.start()
         child.close()
@@ -155,7 +163,7 @@ class _Worker:
             pass
 
     def stop(self) -> None:
-        """Terminate the process (SIGTERM, then SIGKILL) and reap it."""
+        """Terminate the process (SIGTERM, then SIGKILL), reap it and remove its temporary folder."""
         if self.process.is_alive():
             self.process.terminate()
             self.process.join(5.0)
@@ -163,6 +171,7 @@ class _Worker:
                 self.process.kill()
         self.process.join()
         self.conn.close()
+        shutil.rmtree(self.scratch, ignore_errors=True)
 
 
 class ProcessExecutor:

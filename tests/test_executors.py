@@ -133,3 +133,23 @@ def test_cli_runs_on_ray_and_refuses_bad_executor_settings(tmp_path, capsys, ray
     assert "executor 'slurm' is not one of ['local', 'ray']" in capsys.readouterr().err
     with pytest.raises(Exception, match="--address is for --executor ray"):
         make_executor(2, "local", "auto")
+
+
+def _temp_file_then_die(folder: str) -> None:
+    """Make a temporary file the usual way, note its path in `folder`, and die as a killed worker would."""
+    import tempfile
+
+    handle, path = tempfile.mkstemp()
+    os.close(handle)
+    Path(folder, f"{os.getpid()}.path").write_text(path)
+    os._exit(3)
+
+
+def test_a_killed_worker_leaves_no_temporary_files(tmp_path):
+    """A worker's temporary files lie in a folder the driver removes with the process, even when it dies."""
+    ((_, lost),) = list(ProcessExecutor(1, attempts=2).map_unordered(_temp_file_then_die, [str(tmp_path)]))
+    assert "died" in lost.reason
+    paths = [Path(p.read_text()) for p in tmp_path.glob("*.path")]
+    assert len(paths) == 2  # one per attempt, each in a fresh worker
+    assert all(p.parent.name.startswith("entangle-bench-worker-") for p in paths)
+    assert not any(p.exists() or p.parent.exists() for p in paths)
