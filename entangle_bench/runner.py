@@ -283,28 +283,28 @@ def run_trial(
     """
     start = time.perf_counter()
     state_dir = None if folder is None else Path(folder) / STATES
+
+    def files(timestep_s: float) -> list[Observer]:
+        return [] if folder is None else watch.observers(spec, Path(folder), timestep_s)
+
     first = first_attempt if retry_unstable else None
-    caller_observers = list(observers)
+    logged_wall = 0.0 if first is None else first.wall_time_s
+    retry_observers = [] if first is None else list(observers)  # the caller's see the first run made
     if first is None:
-        watchers = caller_observers + ([] if folder is None else
-                                       watch.observers(spec, Path(folder), spec.config.numerics.timestep_s))
-        caller_observers = []
-        row = simulate(spec.task, spec.config, spec.seed, limits=limits, observers=watchers, state_dir=state_dir).row
+        row = simulate(spec.task, spec.config, spec.seed, limits=limits, state_dir=state_dir,
+                       observers=[*observers, *files(spec.config.numerics.timestep_s)]).row
         if row["outcome"] == UNSTABLE and retry_unstable:
             first = FirstAttempt.of(row)
     retried = first is not None
-    if first is not None:
+    if retried:
         numerics = dataclasses.replace(spec.config.numerics, timestep_s=spec.config.numerics.timestep_s / 2)
         halved = dataclasses.replace(spec.config, numerics=numerics)
         if state_dir is not None:
             for stale in state_dir.glob(state_path(state_dir, spec.trial_id, "*").name):
                 stale.unlink()
-        rewatch = caller_observers + ([] if folder is None else
-                                      watch.observers(spec, Path(folder), halved.numerics.timestep_s))
-        row = simulate(spec.task, halved, spec.seed, limits=limits, observers=rewatch, state_dir=state_dir,
-                       state_id=spec.trial_id).row
+        row = simulate(spec.task, halved, spec.seed, limits=limits, state_dir=state_dir, state_id=spec.trial_id,
+                       observers=[*retry_observers, *files(halved.numerics.timestep_s)]).row
         row.update(first_unstable_reason=first.reason, first_unstable_time_s=first.time_s)
-    logged_wall = first_attempt.wall_time_s if retried and first_attempt is not None else 0.0
     return {
         **_identity(spec),
         "success": row["outcome"] == SUCCESS,

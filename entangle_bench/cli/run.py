@@ -134,7 +134,7 @@ def _suite(args: argparse.Namespace) -> suites.Suite:
 def _suite_ids(specs: list[TrialSpec], seeds: set[int]) -> set[str]:
     """Trial ids of the specs' conditions at every seed in `seeds`: the rows of this suite a log holds,
     those of earlier runs with other seeds included."""
-    conditions = {spec.trial_id: (spec.task, spec.config) for spec in specs}.values()
+    conditions = {trial_id(s.task, s.config, 0): (s.task, s.config) for s in specs}.values()  # one per condition
     return {trial_id(task, config, seed) for task, config in conditions for seed in seeds}
 
 
