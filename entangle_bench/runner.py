@@ -50,10 +50,16 @@ from entangle_bench.results import FAILED, SUCCESS, UNSTABLE, TrialLog
 from entangle_bench.suite import TASKS
 from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, WatchdogTripped
 
+#: Config fields added after results were logged, at the value that reproduces the behaviour from before them.
+#: At that value a field stays out of the trial id, so the ids of those logs (and their resume) do not change.
+ID_NEUTRAL_FIELDS: dict[str, Any] = {"contact.filament_friction": None}
+
 
 def trial_id(task: str, config: Any, seed: int) -> str:
     """Stable 16-hex-digit id of (task, resolved configuration, seed)."""
-    payload = json.dumps([task, to_flat_dict(config), seed], sort_keys=True, default=repr)
+    flat = {key: value for key, value in to_flat_dict(config).items()
+            if not (key in ID_NEUTRAL_FIELDS and value == ID_NEUTRAL_FIELDS[key])}
+    payload = json.dumps([task, flat, seed], sort_keys=True, default=repr)
     return hashlib.sha1(payload.encode()).hexdigest()[:16]
 
 

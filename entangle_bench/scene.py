@@ -22,6 +22,9 @@ class ContactParams:
 
     friction: float = 1.0
     """Sliding friction coefficient (silicone on rigid plastic is of order 1)."""
+    filament_friction: float | None = None
+    """Sliding friction between filaments (silicone on silicone), None: `friction`. Object and ground geoms
+    take priority over filament geoms, so a filament touching them uses `friction` whatever this is."""
     torsional_friction_m: float = 1e-4
     rolling_friction_m: float = 1e-5
     timeconst_s: float = 0.02
@@ -34,6 +37,8 @@ class ContactParams:
 
     def __post_init__(self) -> None:
         check_range("contact.friction", self.friction, 0.0, 10.0)
+        if self.filament_friction is not None:
+            check_range("contact.filament_friction", self.filament_friction, 0.0, 10.0)
         check_range("contact.torsional_friction_m", self.torsional_friction_m, 0.0, 1.0)
         check_range("contact.rolling_friction_m", self.rolling_friction_m, 0.0, 1.0)
         check_range("contact.timeconst_s", self.timeconst_s, 0.0, 1.0, low_open=True)
@@ -139,8 +144,14 @@ def build_scene(
     roles = {geom.name: role_of(geom.name)[0] for geom in spec.geoms}
     group = {name: collision_group[role] for name, role in roles.items() if role in collision_group}
     # Material first: explicit contact pairs made by apply_effects copy it from the geoms.
+    filament_friction = contact.friction if contact.filament_friction is None else contact.filament_friction
     for geom in spec.geoms:
-        geom.friction = (contact.friction, contact.torsional_friction_m, contact.rolling_friction_m)
+        # MuJoCo takes a contact's material from the geom of higher priority (the larger friction at equal
+        # priority): object and ground over filaments, so only filament pairs use the filament friction.
+        is_filament = roles.get(geom.name) == "filament"
+        geom.priority = 0 if is_filament else 1
+        sliding = filament_friction if is_filament else contact.friction
+        geom.friction = (sliding, contact.torsional_friction_m, contact.rolling_friction_m)
         geom.solref = (contact.timeconst_s, contact.dampratio)
         geom.solimp = (*contact.impedance, 0.001, 0.5, 2.0)
     fx.apply_effects(

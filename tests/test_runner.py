@@ -8,12 +8,13 @@ import pytest
 from scipy import stats
 
 from entangle_bench.cli import main
+from entangle_bench.config import to_flat_dict
 from entangle_bench.errors import FileFormatError, UnknownNameError
 from entangle_bench.executors import SerialExecutor
 from entangle_bench.metrics.stats import success_table, wilson_interval
 from entangle_bench.recording import read_recording
 from entangle_bench.results import TrialLog
-from entangle_bench.runner import Watch, run_trial, run_trials, simulate
+from entangle_bench.runner import ID_NEUTRAL_FIELDS, Watch, run_trial, run_trials, simulate
 from entangle_bench.suite import SHORT_SEQUENCE
 from entangle_bench.suites import SUITES, load_suite, task_suite
 
@@ -184,6 +185,18 @@ def test_a_run_that_adds_seeds_summarizes_every_seed_of_its_conditions_and_only_
     assert main(base + ["--set", "phases.hold_time_s=0.2"]) == 0
     assert pd.read_csv(tmp_path / "summary.csv")["trials"].tolist() == [1]
     assert len(TrialLog(tmp_path / "trials.jsonl").rows()) == 3
+
+
+def test_fields_at_their_neutral_value_stay_out_of_the_trial_id():
+    """A field added after results were logged keeps the old ids at its neutral value (the pinned rows check
+    those ids) and changes the id at any other value; every neutral field is a real field at its default."""
+    for task in ("eight_branch_tree", "pullout_cylinder_51"):
+        flat = to_flat_dict(task_suite(task).specs[0].config)
+        for key, neutral in ID_NEUTRAL_FIELDS.items():
+            assert flat[key] == neutral
+    default, neutral, changed = (task_suite("eight_branch_tree", overrides=o).specs[0].trial_id
+                                 for o in ([], ["contact.filament_friction=none"], ["contact.filament_friction=3"]))
+    assert default == neutral != changed
 
 
 def test_rerun_skips_finished_trials(tmp_path, short_spec):
