@@ -93,6 +93,10 @@ class PullMetrics:
     """Where the force fell below the release threshold for good, m (NaN unless released or slid off)."""
     travel_m: float
     """Hub displacement at the last point of the curve, m."""
+    second_peak_force_n: float = math.nan
+    """Largest pull force of the second method's curve (`analyze_curve`'s `second_force_n`), N; NaN if none."""
+    second_toughness_j: float = math.nan
+    """The second method's F dx integral over the same span as `toughness_j`, J; NaN if none."""
 
     @property
     def toughness_is_lower_bound(self) -> bool:
@@ -109,18 +113,22 @@ def analyze_curve(
     release_distance_m: float,
     engage_force_n: float,
     max_travel_m: float,
+    second_force_n: Sequence[float] | None = None,
 ) -> PullMetrics:
     """Release (`ReleaseDetector`), result, peak force and toughness of one curve.
 
-    Per point: displacement (m, from 0), pull force (N), whether a filament touches the object.
+    Per point: displacement (m, from 0), pull force (N), whether a filament touches the object. The release is
+    decided on `force_n`; `second_force_n`, the same force by a second method (N), gets its own peak and its
+    integral over the same span, so the two methods' toughness can be compared.
     """
     x = np.asarray(displacement_m, dtype=float)
     f = np.asarray(force_n, dtype=float)
     contact = np.asarray(touching, dtype=bool)
-    if x.ndim != 1 or x.shape != f.shape or x.shape != contact.shape or len(x) == 0:
+    second = f if second_force_n is None else np.asarray(second_force_n, dtype=float)
+    if x.ndim != 1 or x.shape != f.shape or x.shape != contact.shape or x.shape != second.shape or len(x) == 0:
         raise ParameterError(
-            f"a curve needs equal, non-empty 1-D displacement, force and contact, got {x.shape}, {f.shape}, "
-            f"{contact.shape}"
+            f"a curve needs equal, non-empty 1-D displacement, force, contact (and second force), got {x.shape}, "
+            f"{f.shape}, {contact.shape}, {second.shape}"
         )
     detector = ReleaseDetector(release_force_n, release_distance_m)
     end, release, start = len(x), math.nan, 0
@@ -139,6 +147,7 @@ def analyze_curve(
         result = "held"
     else:
         result = ""
+    with_second = second_force_n is not None
     return PullMetrics(
         result=result,
         peak_force_n=float(f[peak]),
@@ -146,6 +155,8 @@ def analyze_curve(
         toughness_j=float(np.trapezoid(f[:end], x[:end])) if result else math.nan,
         displacement_at_release_m=release,
         travel_m=float(x[-1]),
+        second_peak_force_n=float(np.max(second)) if with_second else math.nan,
+        second_toughness_j=float(np.trapezoid(second[:end], x[:end])) if with_second and result else math.nan,
     )
 
 

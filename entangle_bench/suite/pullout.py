@@ -9,7 +9,9 @@ travel, once it carried that force or while no filament touches it) or the hub h
 
 The instrument reads the pull force two ways: from the weld's constraint rows, F = -(F_weld + m g) (the force the
 gripper exerts on the object, its weight tared), and independently from the sum of the filament-object contact
-forces; with the object held still they agree (`force_method_gap_n` is their largest difference). Every control
+forces; with the object held still they agree (`force_method_gap_n` is their largest difference). An object
+ringing on its stiff weld moves the weld's reading by its m a, so the row also gives the contact sum's own peak
+and toughness over the same span (`contact_peak_force_n`, `contact_toughness_j`). Every control
 step of the pull, from its start, logs a `metrics.pullout.CurvePoint` (`states/<trial_id>_series.npz`, read with
 `entangle_bench.pullout.read_curve`). Outcome: `released` or `slid_off` (failures: the grasp let go, slid_off if
 it never carried the engagement force, `engage_weight_fraction` of the object's weight) or success (the grasp
@@ -140,6 +142,8 @@ class _PullTracking:
     """Hub position when the pull began, m."""
     displacement: list[float] = field(default_factory=list)
     force: list[float] = field(default_factory=list)
+    contact_force: list[float] = field(default_factory=list)
+    """Pull force from the filament-object contact sum, N (the second method)."""
     touching: list[bool] = field(default_factory=list)
     method_gap_n: float = 0.0
     """Largest |weld - contact| pull force so far, N."""
@@ -228,6 +232,7 @@ class PullOut(DrapeTask[PullOutConfig]):
         track.point = point
         track.displacement.append(point.displacement_m)
         track.force.append(point.pull_force_n)
+        track.contact_force.append(point.contact_pull_force_n)
         track.touching.append(point.contacts["filament-object"] > 0)
         track.method_gap_n = max(track.method_gap_n, abs(point.pull_force_n - point.contact_pull_force_n))
         released = track.detector.update(point.displacement_m, point.pull_force_n, track.touching[-1])
@@ -240,6 +245,7 @@ class PullOut(DrapeTask[PullOutConfig]):
                 release_distance_m=pull.release_distance_m,
                 engage_force_n=self.engage_force_n(physics),
                 max_travel_m=pull.max_travel_m,
+                second_force_n=track.contact_force,
             )
             result = track.result
             evidence = {
@@ -275,12 +281,15 @@ class PullOut(DrapeTask[PullOutConfig]):
         return super().snapshot(physics)
 
     def metrics(self, physics: ScenePhysics) -> dict[str, float | str | bool]:
-        """Pull result, peak force (N), toughness (J), displacements (m), hub work (J), method gap (N); NaN if none."""
+        """Pull result, peak force (N), toughness (J), both also from the contact sum, displacements (m), hub work
+        (J), method gap (N); NaN if none."""
         track, result = self._track, self._track.result
         row: dict[str, float | str | bool] = {
             "pull_result": "",
             "peak_force_n": math.nan,
             "toughness_j": math.nan,
+            "contact_peak_force_n": math.nan,
+            "contact_toughness_j": math.nan,
             "toughness_is_lower_bound": False,
             "displacement_at_peak_m": math.nan,
             "displacement_at_release_m": math.nan,
@@ -295,6 +304,8 @@ class PullOut(DrapeTask[PullOutConfig]):
                 "pull_result": result.result,
                 "peak_force_n": result.peak_force_n,
                 "toughness_j": result.toughness_j,
+                "contact_peak_force_n": result.second_peak_force_n,
+                "contact_toughness_j": result.second_toughness_j,
                 "toughness_is_lower_bound": result.toughness_is_lower_bound,
                 "displacement_at_peak_m": result.displacement_at_peak_m,
                 "displacement_at_release_m": result.displacement_at_release_m,

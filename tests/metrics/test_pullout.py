@@ -46,6 +46,23 @@ def test_triangle_releases_after_its_peak_with_the_area_as_toughness():
     assert m.travel_m == x[-1]
 
 
+def test_a_second_method_gets_its_own_peak_and_its_area_over_the_same_span():
+    """A spike on the first method's curve (an object ringing on its weld) moves its peak, not the release; the
+    second, spike-free curve's toughness is its own trapezoid up to the same release point."""
+    x, f, touching = triangle(0.5, 0.02)
+    spiked = f.copy()
+    spiked[200] += 0.8  # one point at the peak (x = 20 mm): 0.8 N
+    m = analyze_curve(x, spiked, touching, **CRITERIA, second_force_n=f)
+    clean = analyze_curve(x, f, touching, **CRITERIA)
+    assert m.displacement_at_release_m == clean.displacement_at_release_m
+    assert m.peak_force_n == pytest.approx(1.3) and m.second_peak_force_n == pytest.approx(0.5)
+    assert m.second_toughness_j == clean.toughness_j
+    assert m.toughness_j == pytest.approx(clean.toughness_j + 0.8 * STEP_M, rel=1e-9)  # the spike's triangle
+    assert math.isnan(clean.second_peak_force_n) and math.isnan(clean.second_toughness_j)
+    with pytest.raises(ParameterError, match="second force"):
+        analyze_curve(x, f, touching, **CRITERIA, second_force_n=f[:-1])
+
+
 def test_slack_in_contact_is_not_a_release():
     x, f, touching = triangle(0.5, 0.02, slack_m=0.05)
     m = analyze_curve(x, f, touching, **CRITERIA)
