@@ -151,12 +151,11 @@ def run(args: argparse.Namespace) -> int:
     gripper_configs = [spec.config for spec in specs if isinstance(spec.config, GripperTaskConfig)]
     for text in dict.fromkeys(w for config in gripper_configs for w in envelope_warnings(config)):
         print(f"warning: {text}")
-    wanted = {s.trial_id for s in specs}
     try:
         run_trials(specs, log, executor, retry_unstable=args.retry_unstable, progress=not args.no_progress,
                    watch=Watch(record=args.record, video=args.video))
     except (KeyboardInterrupt, Interrupted):
-        done = len(log.done_ids(args.retry_unstable) & wanted)
+        done = len(log.done_ids(args.retry_unstable) & {s.trial_id for s in specs})
         print(f"entangle-bench: run interrupted: {done} of {len(specs)} trials are in {log.path}; "
               "rerun the same command to run the others", file=sys.stderr)
         raise
