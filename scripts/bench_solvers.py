@@ -2,8 +2,9 @@
 
 Runs one trial (default: the tree; `--task`, `--preset`, `--seed`, `--set` overrides, e.g. the
 `calibration` suite's settings) to `--at` seconds, saves the state, then steps `--steps` physics steps from
-that same state once per solver variant and prints a markdown table: ms per step, mean iterations, the last
-iteration's relative improvement (MuJoCo's `mjData.solver`; small means converged), deepest contact, and how
+that same state once per solver variant and prints a markdown table: ms per step, mean constraint islands (0:
+islands off), mean iterations summed over the islands, the worst island's last relative improvement (MuJoCo's
+`mjData.solver`; small means converged), deepest contact, and how
 far the variant's joint positions drift from the first variant's at the end (the trial is chaotic, so this
 is a scale, not an error).
 
@@ -16,16 +17,21 @@ from __future__ import annotations
 import argparse
 import platform
 import time
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from entangle_bench.studies.branching import SavedTrial, option_variants, run_until
+from entangle_bench.studies.profile import solver_load
 from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
 
-#: Variants: name -> mjOption fields changed from the configuration's own numerics.
-VARIANTS: dict[str, dict[str, int]] = {
+#: Variants: name -> mjOption fields changed from the configuration's own numerics (a value or a function of it).
+VARIANTS: dict[str, dict[str, Any]] = {
     "configured": {},
+    "configured, islands off": {"disableflags": lambda flags: flags | int(mujoco.mjtDisableBit.mjDSBL_ISLAND)},
+    "configured, line search 5 iterations": {"ls_iterations": 5},
+    "configured, line-search tolerance 0.1": {"ls_tolerance": 0.1},
     "cg, 10 iterations": {"solver": mujoco.mjtSolver.mjSOL_CG, "iterations": 10},
     "cg, 100 iterations": {"solver": mujoco.mjtSolver.mjSOL_CG, "iterations": 100},
     "pgs, 30 iterations": {"solver": mujoco.mjtSolver.mjSOL_PGS, "iterations": 30},
@@ -52,22 +58,25 @@ def main() -> None:
           f"{task} preset {args.preset} seed {args.seed} {' '.join(args.overrides)}")
     print(f"state at t = {physics.time():.3f} s ({env.task.phase(physics)}): nv {model.nv}, {data.ncon} contacts, "
           f"{data.nefc} constraint rows; timestep {model.opt.timestep * 1e3:g} ms; {args.steps} steps each")
-    print("| solver | ms per step | mean iterations | last improvement | deepest contact (mm) | drift (rad) |")
-    print("|---|---|---|---|---|---|")
+    print("| solver | ms per step | islands | iterations (all islands) | last improvement (worst island) "
+          "| deepest contact (mm) | drift (rad) |")
+    print("|---|---|---|---|---|---|---|")
     reference = None
     for name in option_variants(model, VARIANTS):
         saved.restore(env)
-        iterations, deepest = 0, 0.0
+        iterations, islands, deepest = 0, 0, 0.0
         start = time.perf_counter()
         for _ in range(args.steps):
             mujoco.mj_step(model, data)
-            iterations += int(data.solver_niter[0])
+            iterations += solver_load(data)[0]
+            islands += int(data.nisland)
             if data.ncon:
                 deepest = max(deepest, -float(data.contact.dist[: data.ncon].min()))
         wall = time.perf_counter() - start
-        last = data.solver[max(0, int(data.solver_niter[0]) - 1)].improvement
+        last = solver_load(data)[1]
         reference = data.qpos.copy() if reference is None else reference
-        print(f"| {name} | {1e3 * wall / args.steps:.2f} | {iterations / args.steps:.1f} | {last:.1e} | "
+        print(f"| {name} | {1e3 * wall / args.steps:.2f} | {islands / args.steps:.1f} | {iterations / args.steps:.1f} "
+              f"| {last:.1e} | "
               f"{1e3 * deepest:.2f} | {np.abs(data.qpos - reference).max():.2f} |", flush=True)
 
 

@@ -205,8 +205,14 @@ def reference_toughness_j(object_name: str, pressure_pa: float) -> float:
     return REFERENCE_TOUGHNESS_J.get(object_name, math.nan)
 
 
+#: Row columns (name, unit suffix) that `pullout_table` summarizes: the weld's peak force and toughness, and the
+#: same from the filament-object contact sum (the second method; absent in rows written before it: NaN).
+SUMMARIZED = (("peak_force", "n"), ("toughness", "j"), ("contact_peak_force", "n"), ("contact_toughness", "j"))
+
+
 def pullout_table(rows: pd.DataFrame, by: Sequence[str], seed: int = 0) -> pd.DataFrame:
-    """Per condition: trial counts by result, median, IQR and bootstrap 95 % CI of peak force and toughness.
+    """Per condition: trial counts by result, median, IQR and bootstrap 95 % CI of peak force and toughness, by
+    the weld and by the contact sum (`SUMMARIZED`).
 
     Needs columns `outcome`, `pull_result`, `peak_force_n`, `toughness_j`, `config.object_name` and
     `config.gripper.pressure_pa`. Scored trials are stable ones with a result in PULL_RESULTS; unstable and
@@ -225,8 +231,8 @@ def pullout_table(rows: pd.DataFrame, by: Sequence[str], seed: int = 0) -> pd.Da
             "scored": len(scored),
         }
         entry |= {result: int((scored["pull_result"] == result).sum()) for result in PULL_RESULTS}
-        for column, unit in (("peak_force", "n"), ("toughness", "j")):
-            summary = median_interval(scored[f"{column}_{unit}"], seed=seed)
+        for column, unit in SUMMARIZED:
+            summary = median_interval(scored.get(f"{column}_{unit}", []), seed=seed)
             entry |= {
                 f"{column}_median_{unit}": summary.median,
                 f"{column}_q25_{unit}": summary.q25,

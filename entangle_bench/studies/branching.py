@@ -71,9 +71,10 @@ class SavedTrial:
 
 def option_variants(model: Any, variants: Mapping[str, Mapping[str, Any]]) -> Iterator[str]:
     """Set each variant's `mjOption` fields in turn, every other field a variant changes back at its configured
-    value, and yield the variant's name."""
+    value, and yield the variant's name. A value may be a function of the configured value (e.g. one more bit
+    in `disableflags`)."""
     configured = {name: getattr(model.opt, name) for changes in variants.values() for name in changes}
     for name, changes in variants.items():
         for field, value in {**configured, **changes}.items():
-            setattr(model.opt, field, value)
+            setattr(model.opt, field, value(configured[field]) if callable(value) else value)
         yield name

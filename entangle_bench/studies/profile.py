@@ -2,7 +2,8 @@
 
 `StageProfile` is an observer (`observers.Observer`): after every control step it moves the time MuJoCo's
 timers accumulated since the last step into the phase that step ran in, with the wall time of the whole
-control step (the Python between steps included), the contact count and the solver's iteration count. Use
+control step (the Python between steps included), the contact count and the solver's iterations (summed over
+the constraint islands, `solver_load`). Use
 it through `profile_trial`, or pass it to `runner.simulate(..., observers=[...])`.
 """
 
@@ -28,6 +29,16 @@ STAGES: dict[str, mujoco.mjtTimer] = {
     "constraint_solver": mujoco.mjtTimer.mjTIMER_CONSTRAINT,
     "advance": mujoco.mjtTimer.mjTIMER_ADVANCE,
 }
+
+
+def solver_load(data: Any) -> tuple[int, float]:
+    """The last step's constraint-solver iterations summed over its islands, and the worst island's last relative
+    improvement (small: converged). MuJoCo keeps solver statistics per island, for the first mjNISLAND islands
+    (slot 0 when islands are off or there are none), so slot 0 alone undercounts a step with several islands."""
+    n = min(max(int(data.nisland), 1), mujoco.mjNISLAND)
+    niter = [int(k) for k in data.solver_niter[:n]]
+    last = [data.solver[i * mujoco.mjNSOLVER + k - 1].improvement for i, k in enumerate(niter) if k]
+    return sum(niter), float(max(last, default=0.0))
 
 
 @dataclass
@@ -86,7 +97,7 @@ class StageProfile:
             clock - self._clock,
             physics.data.time - self._time,
             int(data.ncon),
-            int(data.solver_niter[0]),
+            solver_load(data)[0],
             {name: now[name] - self._last[name] for name in STAGES},
         )
         for load in (self.phases.setdefault(env.task.phase(physics), _PhaseLoad()), self.total):
