@@ -178,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
     if report:
         table = pd.read_csv(report[0])
         columns = ["condition", "scored", "released", "slid_off", "held", "peak_force_median_n",
-                   "toughness_median_j", "contact_toughness_median_j", "reference_toughness_j"]
+                   "toughness_median_j", "contact_scored", "contact_toughness_median_j", "reference_toughness_j"]
         with pd.option_context("display.width", 160, "display.max_columns", 20):
             print(table[columns].to_string(index=False, float_format=lambda v: f"{v:.3g}"))
         print("pull-out: " + "  ".join(str(p) for p in report))

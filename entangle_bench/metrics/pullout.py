@@ -212,7 +212,7 @@ SUMMARIZED = (("peak_force", "n"), ("toughness", "j"), ("contact_peak_force", "n
 
 def pullout_table(rows: pd.DataFrame, by: Sequence[str], seed: int = 0) -> pd.DataFrame:
     """Per condition: trial counts by result, median, IQR and bootstrap 95 % CI of peak force and toughness, by
-    the weld and by the contact sum (`SUMMARIZED`).
+    the weld and by the contact sum (`SUMMARIZED`; `contact_scored` counts the rows that have the latter).
 
     Needs columns `outcome`, `pull_result`, `peak_force_n`, `toughness_j`, `config.object_name` and
     `config.gripper.pressure_pa`. Scored trials are stable ones with a result in PULL_RESULTS; unstable and
@@ -240,6 +240,7 @@ def pullout_table(rows: pd.DataFrame, by: Sequence[str], seed: int = 0) -> pd.Da
                 f"{column}_ci95_low_{unit}": summary.ci_low,
                 f"{column}_ci95_high_{unit}": summary.ci_high,
             }
+        entry["contact_scored"] = summary.n  # scored rows with the contact sum's toughness (older rows lack it)
         names = group["config.object_name"].unique()
         pressures = group["config.gripper.pressure_pa"].unique()
         single = len(names) == 1 and len(pressures) == 1

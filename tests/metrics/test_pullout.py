@@ -129,11 +129,12 @@ def test_table_scores_stable_trials_only_beside_the_reference():
     assert table["peak_force_median_n"] == 1.0 and table["toughness_median_j"] == 0.01
     assert table["peak_force_ci95_high_n"] <= 2.0  # the unstable trial's 50 N never enters
     assert table["reference_toughness_j"] == 0.010 and table["reference_max_force_n"] == REFERENCE_MAX_FORCE_N
-    assert math.isnan(table["contact_toughness_median_j"])  # rows written before the contact-sum columns
+    assert math.isnan(table["contact_toughness_median_j"]) and table["contact_scored"] == 0  # older rows
     second = {"contact_peak_force_n": [0.9, 0.2, 2.2, 40.0], "contact_toughness_j": [0.012, 0.0, 0.02, 8.0]}
     both = pullout_table(pull_rows(**second), ["condition"]).iloc[0]
     assert both["contact_peak_force_median_n"] == 0.9 and both["contact_toughness_median_j"] == 0.012
     assert both["contact_toughness_ci95_high_j"] <= 0.02 and both["toughness_median_j"] == 0.01
+    assert both["contact_scored"] == 3  # the unstable row never enters
     other = pullout_table(pull_rows(**{"config.gripper.pressure_pa": [100e3] * 4}), ["condition"]).iloc[0]
     assert math.isnan(other["reference_toughness_j"])  # the reference measured at 172 kPa only
     bracket = pullout_table(pull_rows(**{"config.object_name": ["bracket"] * 4}), ["condition"]).iloc[0]
