@@ -1,8 +1,8 @@
-"""Benchmark: wall time per trial of the default tree task and trials per hour with 1 and 2 workers.
+"""Benchmark: wall time per trial of the default tree task and trials per hour with 1 and 2 workers (`--workers`).
 
 Runs N seeded default trials (balanced preset unless --preset; `--set a.b=v` overrides, e.g. the
 `calibration` suite's settings) into a scratch log and prints a markdown table.
-Usage: python scripts/bench_trials.py [--trials 4] [--preset balanced] [--set a.b=v ...]
+Usage: python scripts/bench_trials.py [--trials 4] [--preset balanced] [--set a.b=v ...] [--workers 1,2]
 """
 
 from __future__ import annotations
@@ -27,14 +27,21 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=4)
     parser.add_argument("--preset", default="balanced")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
+    parser.add_argument("--workers", default="1,2", help="comma-separated worker counts to time (default 1,2)")
     args = parser.parse_args()
+    try:
+        worker_counts = [int(w) for w in args.workers.split(",")]
+    except ValueError:
+        parser.error(f"--workers {args.workers!r}: expected comma-separated positive integers, e.g. 1,2")
+    if not worker_counts or min(worker_counts) < 1:
+        parser.error(f"--workers {args.workers!r}: expected comma-separated positive integers, e.g. 1,2")
     config = resolve_config("eight_branch_tree", args.preset, args.overrides)
     print(f"machine: {platform.machine()} python {platform.python_version()} mujoco {mujoco.__version__}; "
           f"default eight_branch_tree trial, preset {args.preset} {' '.join(args.overrides)}")
     print("| workers | trials | wall (s) | mean wall per trial (s) | sim time per trial (s) | real-time factor "
           "| trials per hour |")
     print("|---|---|---|---|---|---|---|")
-    for workers in (1, 2):
+    for workers in worker_counts:
         specs = [
             TrialSpec("top_drape/eight_branch_tree", "tree", config, 1000 * workers + k, args.preset)
             for k in range(args.trials)
