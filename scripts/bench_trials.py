@@ -29,12 +29,13 @@ def main() -> None:
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
     parser.add_argument("--workers", default="1,2", help="comma-separated worker counts to time (default 1,2)")
     args = parser.parse_args()
+    bad = f"--workers {args.workers!r}: expected comma-separated positive integers, e.g. 1,2"
     try:
         worker_counts = [int(w) for w in args.workers.split(",")]
     except ValueError:
-        parser.error(f"--workers {args.workers!r}: expected comma-separated positive integers, e.g. 1,2")
-    if not worker_counts or min(worker_counts) < 1:
-        parser.error(f"--workers {args.workers!r}: expected comma-separated positive integers, e.g. 1,2")
+        parser.error(bad)
+    if min(worker_counts) < 1:
+        parser.error(bad)
     config = resolve_config("eight_branch_tree", args.preset, args.overrides)
     print(f"machine: {platform.machine()} python {platform.python_version()} mujoco {mujoco.__version__}; "
           f"default eight_branch_tree trial, preset {args.preset} {' '.join(args.overrides)}")

@@ -240,7 +240,8 @@ def pullout_table(rows: pd.DataFrame, by: Sequence[str], seed: int = 0) -> pd.Da
                 f"{column}_ci95_low_{unit}": summary.ci_low,
                 f"{column}_ci95_high_{unit}": summary.ci_high,
             }
-        entry["contact_scored"] = summary.n  # scored rows with the contact sum's toughness (older rows lack it)
+            if column == "contact_toughness":  # how many scored rows have the contact sum (older rows lack it)
+                entry["contact_scored"] = summary.n
         names = group["config.object_name"].unique()
         pressures = group["config.gripper.pressure_pa"].unique()
         single = len(names) == 1 and len(pressures) == 1
