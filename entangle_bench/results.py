@@ -195,14 +195,16 @@ class TrialLog:
         return read_log(self.path)
 
     def done_ids(self, retry_unstable: bool = False) -> set[str]:
-        """Ids of the trials the log holds a result of (failed trials are not done; with `retry_unstable`,
-        neither are `unstable` ones not yet retried at half the timestep)."""
-        return {row["trial_id"] for row in self.rows()
-                if row.get("outcome") != FAILED and not (retry_unstable and _needs_retry(row))}
+        """Ids of the trials the log holds a result of (see `resume_state`)."""
+        return self.resume_state(retry_unstable)[0]
 
-    def unretried_unstable(self) -> dict[str, dict[str, Any]]:
-        """The `unstable` rows not yet retried at half the timestep, by trial id."""
-        return {row["trial_id"]: row for row in self.rows() if _needs_retry(row)}
+    def resume_state(self, retry_unstable: bool = False) -> tuple[set[str], dict[str, dict[str, Any]]]:
+        """From one read of the log: the ids of the trials it holds a result of (failed trials are not done;
+        with `retry_unstable`, neither are `unstable` ones not yet retried at half the timestep), and those
+        unstable rows by id (empty without `retry_unstable`)."""
+        rows = self.rows()
+        retry = {row["trial_id"]: row for row in rows if retry_unstable and _needs_retry(row)}
+        return {row["trial_id"] for row in rows if row.get("outcome") != FAILED} - retry.keys(), retry
 
     def append(self, row: dict[str, Any]) -> None:
         """Append one row as a single atomic line."""

@@ -398,7 +398,7 @@ def run_trials(
     next rerun. `observers` makes extra observers per trial (see `TrialWorker`).
     """
     specs = list(specs)
-    done = log.done_ids(retry_unstable)
+    done, logged = log.resume_state(retry_unstable)
     todo = [s for s in specs if s.trial_id not in done]
     bar = tqdm(
         total=len(specs),
@@ -410,7 +410,6 @@ def run_trials(
     )
     rows: list[dict[str, Any]] = []
     folder = log.path.parent
-    logged = log.unretried_unstable() if retry_unstable else {}
     first_attempts = {s.trial_id: FirstAttempt.of(logged[s.trial_id]) for s in todo if s.trial_id in logged}
     worker = TrialWorker(retry_unstable, watch, observers, first_attempts)
     for spec, result in executor.map_unordered(worker, todo):

@@ -26,6 +26,8 @@ from entangle_bench.studies.branching import SavedTrial, option_variants, run_un
 from entangle_bench.studies.profile import solver_load
 from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
 
+SLEEP = {"enableflags": lambda flags: flags | int(mujoco.mjtEnableBit.mjENBL_SLEEP)}  # MuJoCo's island sleeping
+
 #: Variants: name -> mjOption fields changed from the configuration's own numerics (a value or a function of it).
 VARIANTS: dict[str, dict[str, Any]] = {
     "configured": {},
@@ -40,11 +42,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "pgs, 30 iterations + noslip 10": {"solver": mujoco.mjtSolver.mjSOL_PGS, "iterations": 30, "noslip_iterations": 10},
     "newton, 5 iterations": {"solver": mujoco.mjtSolver.mjSOL_NEWTON, "iterations": 5},
     "newton, 30 iterations": {"solver": mujoco.mjtSolver.mjSOL_NEWTON, "iterations": 30},
-    "configured, sleeping": {"enableflags": lambda flags: flags | int(mujoco.mjtEnableBit.mjENBL_SLEEP)},
-    "configured, sleeping at tolerance 1e-2": {
-        "enableflags": lambda flags: flags | int(mujoco.mjtEnableBit.mjENBL_SLEEP),
-        "sleep_tolerance": 1e-2,
-    },
+    "configured, sleeping": SLEEP,
+    "configured, sleeping at tolerance 1e-2": SLEEP | {"sleep_tolerance": 1e-2},
 }
 
 

@@ -229,6 +229,8 @@ def test_a_rerun_with_retry_unstable_retries_the_logged_unstable_trials_and_its_
     assert log.rows()[0]["outcome"] == "unstable" and log.done_ids() == {spec.trial_id}
     assert run_trials([spec], log, make_executor(1), progress=False) == []  # without the flag: done
     assert log.done_ids(retry_unstable=True) == set()
+    assert log.resume_state(retry_unstable=True)[1] == {spec.trial_id: log.rows()[0]}  # the row to retry
+    assert log.resume_state()[1] == {}
     (new,) = run_trials([spec], log, make_executor(1), retry_unstable=True, progress=False)
     assert new["retried_half_timestep"] is True and new["outcome"] in ("success", "failure")
     (row,) = TrialLog(log.path).rows()
