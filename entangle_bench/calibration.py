@@ -75,11 +75,20 @@ class Rate:
         return f"{rate} [{100 * low:.0f}, {100 * high:.0f}]{unstable}"
 
 
+def condition_rows(rows: pd.DataFrame, task: str, offset_m: float = 0.0, tolerance_m: float = 5e-4) -> pd.DataFrame:
+    """The rows of `task` at centering offset `offset_m` (m, within `tolerance_m`)."""
+    return rows[(rows["task"] == task) & ((rows["config.offset_m"] - offset_m).abs() <= tolerance_m)]
+
+
+def rate_of(rows: pd.DataFrame) -> Rate:
+    """Success over the rows' scored trials, with their unstable count."""
+    scored = rows[rows["outcome"].isin(SCORED)]
+    return Rate(int((scored["outcome"] == SUCCESS).sum()), len(scored), int((rows["outcome"] == UNSTABLE).sum()))
+
+
 def condition_rate(rows: pd.DataFrame, task: str, offset_m: float = 0.0, tolerance_m: float = 5e-4) -> Rate:
     """Success of `task` at centering offset `offset_m` (m, within `tolerance_m`) over the rows' scored trials."""
-    group = rows[(rows["task"] == task) & ((rows["config.offset_m"] - offset_m).abs() <= tolerance_m)]
-    scored = group[group["outcome"].isin(SCORED)]
-    return Rate(int((scored["outcome"] == SUCCESS).sum()), len(scored), int((group["outcome"] == UNSTABLE).sum()))
+    return rate_of(condition_rows(rows, task, offset_m, tolerance_m))
 
 
 def tree_offset_m() -> float:

@@ -16,6 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from entangle_bench import calibration
 from entangle_bench.atomic import atomic_write_text
 from entangle_bench.errors import EntangleBenchError, ParameterError
 from entangle_bench.results import atomic_write_csv, markdown, read_results
@@ -42,7 +43,7 @@ def main() -> int:
     try:
         fine, fine_folder = _labelled(args.fine)
         folders = dict([(fine, fine_folder), *map(_labelled, args.variant)])
-        variants = {label: grasp_front.condition_rows(read_results(folder), args.task, args.offset)
+        variants = {label: calibration.condition_rows(read_results(folder), args.task, args.offset)
                     for label, folder in folders.items()}
         empty = [label for label, rows in variants.items() if rows.empty]
         if empty:
@@ -61,8 +62,9 @@ def main() -> int:
         atomic_write_csv(toughness, args.out / "toughness.csv")
         text += ["## Pull-out toughness", "", markdown(toughness, digits=3), ""]
     default = grasp_front.cheapest_agreeing(front, toughness)
-    text.append(f"Cheapest variant that agrees with the fine run: {default or 'open (the fine run has fewer than '}"
-                + ("" if default else f"{grasp_front.MIN_TRIALS} scored trials)"))
+    if default is None:
+        default = f"open (the fine run has fewer than {calibration.MIN_TRIALS} scored trials)"
+    text.append(f"Cheapest variant that agrees with the fine run: {default}")
     grasp_front.plot_front(front, args.out / "front.png", f"{args.task}, offset {args.offset:g} m")
     atomic_write_text(args.out / "front.md", "\n".join(text) + "\n")
     print("\n".join(text))

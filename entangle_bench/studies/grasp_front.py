@@ -25,21 +25,16 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from entangle_bench.atomic import atomic_savefig  # noqa: E402
-from entangle_bench.calibration import MIN_TRIALS, Rate  # noqa: E402
+from entangle_bench.calibration import MIN_TRIALS, Rate, rate_of  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.metrics.pullout import intervals_overlap, pullout_table  # noqa: E402
-from entangle_bench.results import SCORED, SUCCESS, UNSTABLE  # noqa: E402
+from entangle_bench.results import SCORED, UNSTABLE  # noqa: E402
 
 #: Config columns a variant may change: the numerics and the segment count (what `presets.apply_preset` sets).
 NUMERICAL_PREFIXES = ("config.numerics.", "config.gripper.filament.n_segments")
 #: Scored pull-outs per object before a toughness verdict is `agrees`.
 MIN_PULLS = 5
 AGREES, DIFFERS, OPEN = "agrees", "differs", "open"
-
-
-def condition_rows(rows: pd.DataFrame, task: str, offset_m: float = 0.0, tolerance_m: float = 5e-4) -> pd.DataFrame:
-    """The rows of `task` at centering offset `offset_m` (m, within `tolerance_m`)."""
-    return rows[(rows["task"] == task) & ((rows["config.offset_m"] - offset_m).abs() <= tolerance_m)]
 
 
 def check_same_gripper(fine: pd.DataFrame, variant: pd.DataFrame, label: str) -> None:
@@ -73,12 +68,6 @@ def _canonical(value: object) -> str:
 def _mode(column: pd.Series) -> object:
     values = column.dropna()
     return values.mode().iloc[0] if len(values) else math.nan
-
-
-def rate_of(rows: pd.DataFrame) -> Rate:
-    """Success over the scored rows, with the unstable count."""
-    scored = rows[rows["outcome"].isin(SCORED)]
-    return Rate(int((scored["outcome"] == SUCCESS).sum()), len(scored), int((rows["outcome"] == UNSTABLE).sum()))
 
 
 def verdict(rate: Rate, fine: Rate) -> str:
