@@ -26,6 +26,8 @@ import importlib.metadata
 import json
 import os
 import platform
+import shutil
+import socket
 import sys
 import tempfile
 import time
@@ -336,6 +338,37 @@ def failed_row(spec: TrialSpec, reason: str) -> dict[str, Any]:
     }
 
 
+TRIAL_SCRATCH = "entangle-bench-trial-"
+"""Prefix of a trial's scratch folder, '<prefix><pid>@<host>-<random>', in its process's temporary folder."""
+
+
+def _alive(pid: int) -> bool:
+    """Whether process `pid` exists on this machine."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def trial_scratch() -> tempfile.TemporaryDirectory[str]:
+    """A private scratch folder for one trial, named after this process and machine.
+
+    First it removes the scratch folders that processes of this machine left when they died mid-trial: a
+    killed Ray worker cannot clean up, and its driver does not know the folder, so the next trial on the same
+    node does it. Folders of live processes and of other machines (a shared temporary folder) are left alone.
+    """
+    host = socket.gethostname()
+    for path in Path(tempfile.gettempdir()).glob(f"{TRIAL_SCRATCH}*@*-*"):
+        owner = path.name[len(TRIAL_SCRATCH):].rsplit("-", 1)[0]
+        pid, _, owner_host = owner.partition("@")
+        if owner_host == host and pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(path, ignore_errors=True)
+    return tempfile.TemporaryDirectory(prefix=f"{TRIAL_SCRATCH}{os.getpid()}@{host}-")
+
+
 @dataclass(frozen=True, eq=False)
 class TrialOutput:
     """What a worker hands back for one trial: its row and the files it wrote, for the driver to store."""
@@ -365,7 +398,7 @@ class TrialWorker:
 
     def __call__(self, spec: TrialSpec) -> TrialOutput:
         extra = list(self.observers(spec)) if self.observers is not None else []
-        with tempfile.TemporaryDirectory(prefix="entangle-bench-trial-") as scratch:
+        with trial_scratch() as scratch:
             folder = Path(scratch)
             try:
                 row = run_trial(spec, retry_unstable=self.retry_unstable,

@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
+import subprocess
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,7 +19,7 @@ from entangle_bench.cli import main
 from entangle_bench.executors import ProcessExecutor, RayExecutor, SerialExecutor, make_executor
 from entangle_bench.metrics.stats import success_table
 from entangle_bench.results import FAILED, TrialLog
-from entangle_bench.runner import run_trials
+from entangle_bench.runner import TRIAL_SCRATCH, run_trials, trial_scratch
 from entangle_bench.suite import SHORT_SEQUENCE
 
 #: Columns that must not depend on where a trial ran.
@@ -55,7 +58,8 @@ def specs(short_spec):
 @dataclass(frozen=True)
 class Dies:
     """Observer factory: a trial's worker process exits (os._exit) at 0.1 s simulated on its first
-    `times[trial_id]` attempts; each attempt leaves a file `<trial_id>.<n>` in `folder` to count them by."""
+    `times[trial_id]` attempts; each attempt leaves a file `<trial_id>.<n>` in `folder` to count them by,
+    holding the worker's process id and temporary folder."""
 
     folder: Path
     times: dict[str, int]
@@ -70,7 +74,7 @@ class _Dying:
 
     def start(self, env):
         self.attempt = len(list(self.folder.glob(f"{self.trial_id}.*")))
-        (self.folder / f"{self.trial_id}.{self.attempt}").touch()
+        (self.folder / f"{self.trial_id}.{self.attempt}").write_text(f"{os.getpid()} {tempfile.gettempdir()}")
 
     def step(self, env):
         if self.attempt < self.times and env.physics.time() >= 0.1:
@@ -122,6 +126,9 @@ def test_a_worker_killed_once_is_retried_and_one_killed_twice_is_a_failed_row_ne
     (again,) = run_trials(specs, log, SerialExecutor(), progress=False)
     assert again["trial_id"] == twice and again["outcome"] != FAILED
     assert sorted(r["outcome"] != FAILED for r in log.rows()) == [True, True]
+    # The dead attempts' trial scratch folders are gone: a later trial on the machine removed them.
+    attempts = {tuple(p.read_text().split(" ", 1)) for p in tmp_path.glob("*.*") if p.suffix[1:].isdigit()}
+    assert not [p for pid, temporary in attempts for p in Path(temporary).glob(f"{TRIAL_SCRATCH}{pid}@*")]
 
 
 def test_cli_runs_on_ray_and_refuses_bad_executor_settings(tmp_path, capsys, ray_cluster):
@@ -133,6 +140,22 @@ def test_cli_runs_on_ray_and_refuses_bad_executor_settings(tmp_path, capsys, ray
     assert "executor 'slurm' is not one of ['local', 'ray']" in capsys.readouterr().err
     with pytest.raises(Exception, match="--address is for --executor ray"):
         make_executor(2, "local", "auto")
+
+
+def test_a_trial_removes_the_scratch_folders_of_dead_processes_on_its_machine_only(tmp_path, monkeypatch):
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    gone = subprocess.Popen(["true"])
+    gone.wait()
+    host = socket.gethostname()
+    names = {"dead": f"{gone.pid}@{host}-abc", "live": f"{os.getpid()}@{host}-abc",
+             "elsewhere": f"{gone.pid}@not-{host}-abc"}
+    for name in names.values():
+        (tmp_path / f"{TRIAL_SCRATCH}{name}").mkdir()
+        (tmp_path / f"{TRIAL_SCRATCH}{name}" / "states").mkdir()
+    with trial_scratch() as scratch:
+        assert Path(scratch).name.startswith(f"{TRIAL_SCRATCH}{os.getpid()}@{host}-")
+        left = {p.name[len(TRIAL_SCRATCH):] for p in tmp_path.iterdir()}
+    assert left == {names["live"], names["elsewhere"], Path(scratch).name[len(TRIAL_SCRATCH):]}
 
 
 def _temp_file_then_die(folder: str) -> None:
