@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from entangle_bench.errors import ParameterError
+from entangle_bench.metrics import stats
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.results import write_trials
 from entangle_bench.studies import grasp_front
@@ -54,6 +55,22 @@ def test_verdicts_follow_the_intervals_and_the_trial_count():
     short = grasp_front.front_table({"fine": trials(8, 2), "same": trials(16, 4)}, "fine")
     assert short.set_index("variant").loc["same", "verdict"] == "open"
     assert grasp_front.cheapest_agreeing(short) is None
+
+
+def test_seeds_both_scored_are_pairs_and_a_one_sided_change_on_them_differs():
+    """10/20 and 17/20 overlap ([30, 70] % and [64, 95] %), but on the same seeds the variant loses 7 successes
+    and gains none: exact McNemar p = 2 / 2^7 = 0.0156 < 0.05. Losing 2 and gaining 0 gives p = 0.5."""
+    fine = trials(17, 3, timestep_s=1.25e-4)
+    front = grasp_front.front_table({"fine": fine, "lossy": trials(10, 10), "close": trials(15, 5)}, "fine")
+    front = front.set_index("variant")
+    assert wilson_interval(10, 20)[1] > wilson_interval(17, 20)[0]  # the intervals alone would not tell
+    assert front.loc["lossy", ["paired_fine_only", "paired_variant_only"]].tolist() == [7, 0]
+    assert front.loc["lossy", "paired_p"] == pytest.approx(2 / 2**7)
+    assert front.loc["close", "paired_p"] == pytest.approx(0.5)
+    assert front["verdict"].to_dict() == {"fine": "fine run", "lossy": "differs", "close": "agrees"}
+    assert stats.paired_exact_p(0, 0) == 1.0 and stats.paired_exact_p(3, 3) == pytest.approx(1.0)
+    with pytest.raises(ParameterError, match="discordant pair counts must be >= 0"):
+        stats.paired_exact_p(-1, 2)
 
 
 def test_a_variant_may_change_only_the_numerics():

@@ -1,4 +1,4 @@
-"""Success statistics: rates with Wilson score intervals."""
+"""Success statistics: rates with Wilson score intervals; the exact paired test of two methods on the same seeds."""
 
 from __future__ import annotations
 
@@ -17,6 +17,16 @@ def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tu
         raise ParameterError(f"successes = {successes} must be between 0 and trials = {trials}")
     ci = binomtest(successes, trials).proportion_ci(confidence_level=confidence, method="wilson")
     return float(ci.low), float(ci.high)
+
+
+def paired_exact_p(only_first: int, only_second: int) -> float:
+    """Two-sided exact McNemar p-value: two methods run on the same seeds, `only_first` seeds succeeding with
+    the first alone and `only_second` with the second alone (the discordant pairs; scipy's binomial test at
+    1/2). 1 without a discordant pair."""
+    if min(only_first, only_second) < 0:
+        raise ParameterError(f"discordant pair counts must be >= 0, got {only_first} and {only_second}")
+    discordant = only_first + only_second
+    return float(binomtest(only_first, discordant).pvalue) if discordant else 1.0
 
 
 def success_table(rows: pd.DataFrame, by: list[str]) -> pd.DataFrame:

@@ -5,8 +5,10 @@ in their numerics (`config.numerics.*` and the segment count, the fields a prese
 `front_table` gives per variant the success over its scored trials with the Wilson 95 % interval, the unstable
 count, the cost (median wall seconds per simulated second over its stable rows: it depends on what ran beside
 each trial, so compare variants run alike), the outcomes on the seeds both scored, and the verdict against the
-fine run: `agrees` on at least `MIN_TRIALS` scored trials each with overlapping intervals, `differs` where the
-intervals are disjoint, `open` otherwise. `toughness_front` does the same for pull-out toughness (bootstrap
+fine run: `differs` where the intervals are disjoint or where the seeds both scored reject equal success (the
+exact McNemar test at `PAIRED_ALPHA`: a seed fixes the initial state, so the same seed under two numerics is a
+pair, and pairs detect a change that two intervals of 20 trials cannot), `agrees` on at least `MIN_TRIALS`
+scored trials each otherwise, `open` with fewer. `toughness_front` does the same for pull-out toughness (bootstrap
 interval of the median; `MIN_PULLS` scored pulls per object). `cheapest_agreeing` names the default the issue
 asks for: the cheapest variant that agrees with the fine run on every measure.
 """
@@ -28,12 +30,15 @@ from entangle_bench.atomic import atomic_savefig  # noqa: E402
 from entangle_bench.calibration import MIN_TRIALS, Rate, rate_of  # noqa: E402
 from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.metrics.pullout import intervals_overlap, pullout_table  # noqa: E402
-from entangle_bench.results import SCORED, UNSTABLE  # noqa: E402
+from entangle_bench.metrics.stats import paired_exact_p  # noqa: E402
+from entangle_bench.results import SCORED, SUCCESS, UNSTABLE  # noqa: E402
 
 #: Config columns a variant may change: the numerics and the segment count (what `presets.apply_preset` sets).
 NUMERICAL_PREFIXES = ("config.numerics.", "config.gripper.filament.n_segments")
 #: Scored pull-outs per object before a toughness verdict is `agrees`.
 MIN_PULLS = 5
+#: Level of the paired test below which a variant `differs` from the fine run.
+PAIRED_ALPHA = 0.05
 AGREES, DIFFERS, OPEN = "agrees", "differs", "open"
 
 
@@ -70,10 +75,12 @@ def _mode(column: pd.Series) -> object:
     return values.mode().iloc[0] if len(values) else math.nan
 
 
-def verdict(rate: Rate, fine: Rate) -> str:
-    """`agrees`, `differs` or `open` (see the module docstring)."""
+def verdict(rate: Rate, fine: Rate, paired_p: float = 1.0) -> str:
+    """`agrees`, `differs` or `open` (see the module docstring); `paired_p` is the paired test's p-value."""
     (low, high), (fine_low, fine_high) = rate.interval, fine.interval
     if rate.scored and fine.scored and not intervals_overlap(low, high, fine_low, fine_high):
+        return DIFFERS
+    if paired_p < PAIRED_ALPHA:
         return DIFFERS
     return AGREES if rate.enough and fine.enough else OPEN
 
@@ -99,6 +106,9 @@ def front_table(variants: Mapping[str, pd.DataFrame], fine: str) -> pd.DataFrame
         low, high = rate.interval
         outcome = rows[rows["outcome"].isin(SCORED)].set_index("seed")["outcome"]
         common = outcome.index.intersection(fine_outcome.index)
+        ours, theirs = outcome[common] == SUCCESS, fine_outcome[common] == SUCCESS
+        fine_only, variant_only = int((theirs & ~ours).sum()), int((ours & ~theirs).sum())
+        paired_p = paired_exact_p(fine_only, variant_only)
         cost = cost_per_sim_s(rows)
         out.append({
             "variant": label,
@@ -115,9 +125,12 @@ def front_table(variants: Mapping[str, pd.DataFrame], fine: str) -> pd.DataFrame
             "ci95_high": high,
             "paired_seeds": len(common),
             "paired_same_outcome": int((outcome[common] == fine_outcome[common]).sum()),
+            "paired_fine_only": fine_only,
+            "paired_variant_only": variant_only,
+            "paired_p": paired_p,
             "wall_per_sim_s": cost,
             "cost_ratio": cost / fine_cost if fine_cost else math.nan,
-            "verdict": "fine run" if label == fine else verdict(rate, base),
+            "verdict": "fine run" if label == fine else verdict(rate, base, paired_p),
         })
     return pd.DataFrame(out)
 
