@@ -8,9 +8,9 @@ each trial, so compare variants run alike), the outcomes on the seeds both score
 fine run: `differs` where the intervals are disjoint or where the seeds both scored reject equal success (the
 exact McNemar test at `PAIRED_ALPHA`: a seed fixes the initial state, so the same seed under two numerics is a
 pair, and pairs detect a change that two intervals of 20 trials cannot), `agrees` on at least `MIN_TRIALS`
-scored trials each otherwise, `open` with fewer. `toughness_front` does the same for pull-out toughness (bootstrap
-interval of the median; `MIN_PULLS` scored pulls per object). `cheapest_agreeing` names the default the issue
-asks for: the cheapest variant that agrees with the fine run on every measure.
+scored trials each otherwise, `open` with fewer. `toughness_front` judges pull-out toughness on intervals
+alone (bootstrap interval of the median; `MIN_PULLS` scored pulls per object). `cheapest_agreeing` names the
+default the issue asks for: the cheapest variant that agrees with the fine run on every measure.
 """
 
 from __future__ import annotations
