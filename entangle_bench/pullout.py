@@ -46,6 +46,9 @@ class PullCurve:
     """(n,) force the gripper exerts on the object along the pull direction (holding weld), N."""
     contact_pull_force_n: np.ndarray
     """(n,) the same from the filament-object contact forces, N."""
+    ground_pinch_pull_force_n: np.ndarray
+    """(n,) the part of it through filament segments that also touch the ground, N (NaN in curves logged before
+    it was)."""
     force_n: np.ndarray
     """(n, 3) force the gripper exerts on the object (holding weld), N."""
     contact_force_n: np.ndarray
@@ -64,12 +67,18 @@ class PullCurve:
     """(n,) gravity, elastic and kinetic energy of everything but the hub, J."""
 
 
+#: Curve columns added after curves were logged: read as NaN from files that lack them.
+ADDED_COLUMNS = frozenset({"ground_pinch_pull_force_n"})
+
+
 def read_curve(path: str | os.PathLike) -> PullCurve:
     """Read a pull-out trial's curve (`states/<trial_id>_series.npz`); FileFormatError names file and key."""
     path = Path(path)
     with open_npz(path) as archive:
 
         def column(key: str) -> np.ndarray:
+            if key in ADDED_COLUMNS and key not in archive.files:
+                return np.full(archive["time_s"].shape, np.nan)
             if key not in archive.files:
                 raise FileFormatError(f"{path}: key {key!r} is missing: not a pull-out curve")
             values = np.asarray(archive[key], dtype=float)

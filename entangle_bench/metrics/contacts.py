@@ -74,8 +74,10 @@ class ObjectSupport:
 
     `by_part` sums the forces filaments exert on each object geom (named by its part, e.g. 'branch03');
     contacts of a filament segment that touches two or more object geoms at once go to `pinched` instead
-    (a segment squeezed between two faces of one rigid object is a clamp, not a grasp); `ground` is the
-    ground's force on the object; `filament_filament_n` the summed normal force between different filaments
+    (a segment squeezed between two faces of one rigid object is a clamp, not a grasp), and those of a segment
+    that also touches the ground go to `ground_pinched` (a segment squeezed between the object and the ground
+    passes the ground's support on; it carries nothing once the object is lifted); `ground` is the ground's
+    own force on the object; `filament_filament_n` the summed normal force between different filaments
     (the entanglement network's internal load).
     """
 
@@ -83,11 +85,12 @@ class ObjectSupport:
     pinched: np.ndarray
     ground: np.ndarray
     filament_filament_n: float
+    ground_pinched: np.ndarray
 
     @property
     def filament_total(self) -> np.ndarray:
         """(3,) everything the filaments exert on the object, pinches included, N."""
-        return sum(self.by_part.values(), self.pinched.copy())
+        return sum(self.by_part.values(), self.pinched + self.ground_pinched)
 
 
 def object_support(model: mujoco.MjModel, data: mujoco.MjData, geoms: GeomClasses) -> ObjectSupport:
@@ -102,9 +105,13 @@ def object_support(model: mujoco.MjModel, data: mujoco.MjData, geoms: GeomClasse
     wrench = np.zeros(6)
     on_object: list[tuple[int, int, np.ndarray]] = []  # (object geom, other geom, force on the object)
     ground, ff = np.zeros(3), 0.0
+    on_ground: set[int] = set()  # filament geoms touching the ground
     for i, (g1, g2) in zip(active, pairs):
         obj1, obj2 = geoms.is_object[g1], geoms.is_object[g2]
         f1, f2 = geoms.filament[g1], geoms.filament[g2]
+        if (geoms.is_ground[g1] and f2 >= 0) or (geoms.is_ground[g2] and f1 >= 0):
+            on_ground.add(int(g2 if f2 >= 0 else g1))
+            continue
         if not (obj1 or obj2 or (f1 >= 0 and f2 >= 0 and f1 != f2)):
             continue
         mujoco.mj_contactForce(model, data, int(i), wrench)
@@ -121,11 +128,13 @@ def object_support(model: mujoco.MjModel, data: mujoco.MjData, geoms: GeomClasse
     for obj, other, _ in on_object:
         touched.setdefault(other, set()).add(obj)
     by_part: dict[str, np.ndarray] = {}
-    pinched = np.zeros(3)
+    pinched, ground_pinched = np.zeros(3), np.zeros(3)
     for obj, other, force in on_object:
         if len(touched[other]) > 1:
             pinched += force
+        elif other in on_ground:
+            ground_pinched += force
         else:
             part = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, obj).removeprefix("object_")
             by_part[part] = by_part.get(part, np.zeros(3)) + force
-    return ObjectSupport(by_part, pinched, ground, ff)
+    return ObjectSupport(by_part, pinched, ground, ff, ground_pinched)

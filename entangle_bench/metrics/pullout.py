@@ -291,6 +291,8 @@ class CurvePoint:
     """Force the gripper exerts on the object along the pull direction, from the holding weld, N."""
     contact_pull_force_n: float
     """The same from the sum of the filament-object contact forces (the independent second method), N."""
+    ground_pinch_pull_force_n: float
+    """The part of `contact_pull_force_n` through filament segments that also touch the ground, N."""
     force_n: np.ndarray
     """(3,) force the gripper exerts on the object, from the weld: -(weld force + weight), N."""
     contact_force_n: np.ndarray

@@ -144,6 +144,8 @@ class _PullTracking:
     force: list[float] = field(default_factory=list)
     contact_force: list[float] = field(default_factory=list)
     """Pull force from the filament-object contact sum, N (the second method)."""
+    ground_pinch_force: list[float] = field(default_factory=list)
+    """The part of the contact sum's pull force through filament segments that also touch the ground, N."""
     touching: list[bool] = field(default_factory=list)
     method_gap_n: float = 0.0
     """Largest |weld - contact| pull force so far, N."""
@@ -214,12 +216,14 @@ class PullOut(DrapeTask[PullOutConfig]):
             track.peak_force_n = float(force @ direction)
             track.peak_curves = physics.centerlines()
             track.peak_contacts = contact_summary(physics.model.ptr, physics.data.ptr, physics.scene.geoms)
-        contact = physics.object_contact_force()
+        support = physics.object_support()
+        contact = support.filament_total
         ledger = track.ledger
         point = CurvePoint(
             displacement_m=float((physics.hub_position() - track.hub_start) @ direction),
             pull_force_n=float(force @ direction),
             contact_pull_force_n=float(contact @ direction),
+            ground_pinch_pull_force_n=float(support.ground_pinched @ direction),
             force_n=force,
             contact_force_n=contact,
             weld_force_n=weld,
@@ -233,6 +237,7 @@ class PullOut(DrapeTask[PullOutConfig]):
         track.displacement.append(point.displacement_m)
         track.force.append(point.pull_force_n)
         track.contact_force.append(point.contact_pull_force_n)
+        track.ground_pinch_force.append(point.ground_pinch_pull_force_n)
         track.touching.append(point.contacts["filament-object"] > 0)
         track.method_gap_n = max(track.method_gap_n, abs(point.pull_force_n - point.contact_pull_force_n))
         released = track.detector.update(point.displacement_m, point.pull_force_n, track.touching[-1])
@@ -282,7 +287,13 @@ class PullOut(DrapeTask[PullOutConfig]):
 
     def metrics(self, physics: ScenePhysics) -> dict[str, float | str | bool]:
         """Pull result, peak force (N), toughness (J), both also from the contact sum, displacements (m), hub work
-        (J), method gap (N); NaN if none."""
+        (J), method gap (N); NaN if none.
+
+        `ground_pinch_peak_force_n` (over the pull) and `ground_pinch_toughness_j` (over the toughness's span) are
+        the contact sum's peak and integral through filament segments squeezed between the object and the ground:
+        with the object welded on the ground, such a segment can be dragged out of a pinch that a free object would
+        not hold shut, so that share is a property of the test, not of the entanglement.
+        """
         track, result = self._track, self._track.result
         row: dict[str, float | str | bool] = {
             "pull_result": "",
@@ -290,6 +301,8 @@ class PullOut(DrapeTask[PullOutConfig]):
             "toughness_j": math.nan,
             "contact_peak_force_n": math.nan,
             "contact_toughness_j": math.nan,
+            "ground_pinch_peak_force_n": math.nan,
+            "ground_pinch_toughness_j": math.nan,
             "toughness_is_lower_bound": False,
             "displacement_at_peak_m": math.nan,
             "displacement_at_release_m": math.nan,
@@ -306,12 +319,22 @@ class PullOut(DrapeTask[PullOutConfig]):
                 "toughness_j": result.toughness_j,
                 "contact_peak_force_n": result.second_peak_force_n,
                 "contact_toughness_j": result.second_toughness_j,
+                **_ground_pinch(track, result),
                 "toughness_is_lower_bound": result.toughness_is_lower_bound,
                 "displacement_at_peak_m": result.displacement_at_peak_m,
                 "displacement_at_release_m": result.displacement_at_release_m,
                 "travel_m": result.travel_m,
             }
         return row
+
+
+def _ground_pinch(track: _PullTracking, result: PullMetrics) -> dict[str, float]:
+    """Peak (N) and integral (J) of the ground-pinched pull force over the toughness's span (to the release)."""
+    x, f = np.asarray(track.displacement), np.asarray(track.ground_pinch_force)
+    end = len(x) if math.isnan(result.displacement_at_release_m) else \
+        int(np.searchsorted(x, result.displacement_at_release_m, side="right"))
+    toughness = float(np.trapezoid(f[:end], x[:end])) if result.result else math.nan
+    return {"ground_pinch_peak_force_n": float(f.max()), "ground_pinch_toughness_j": toughness}
 
 
 register_object_tasks("pullout", PullOutConfig, PullOut, "pull-out test", tags=("pullout",))

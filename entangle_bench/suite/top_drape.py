@@ -197,7 +197,8 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
     def _add_support(self, support: ObjectSupport) -> None:
         """Add one hold step's upward forces on the object by source to the running sums."""
         sums, track = self._tracking.support_z_n, self._tracking
-        sources = {"ground": support.ground[2], "pinched": support.pinched[2]}
+        sources = {"ground": support.ground[2], "pinched": support.pinched[2],
+                   "ground_pinched": support.ground_pinched[2]}
         for part, force in support.by_part.items():
             key = f"part.{part.rstrip('0123456789')}"
             sources[key] = sources.get(key, 0.0) + force[2]
@@ -242,7 +243,8 @@ class TopDrape(DrapeTask[TopDrapeConfig]):
 
         `peak_lift_force_w` and `support.<source>_w` are in units of the object's weight W; the support is the
         mean upward force over the hold by source (`part.<part>`: filaments on that part of the object,
-        `pinched`, `ground`); `support.filament_filament_normal_n` the mean normal force between filaments, N.
+        `pinched`, `ground_pinched`: filament segments between the object and the ground, `ground`);
+        `support.filament_filament_normal_n` the mean normal force between filaments, N.
         """
         track = self._tracking
         weight = float(np.linalg.norm(physics.object_weight())) or math.nan

@@ -180,3 +180,38 @@ def test_a_segment_touching_two_object_faces_is_pinched_and_statics_balance():
     summary = contact_summary(model, data, geoms)
     grooved = summary.normal_forces_n[(summary.kinds == "filament-object") & (summary.points[:, 0] < 0.1)]
     assert grooved.sum() == pytest.approx(np.sqrt(2) * CAPSULE_MASS * GRAVITY, rel=0.03)
+
+
+def raft_scene() -> mujoco.MjModel:
+    """A box (the object) resting on two filaments (0, 1) that lie on the ground along x, and filament 2 lying
+    on the box along y: the box touches the ground only through filaments 0 and 1."""
+    spec = mujoco.MjSpec()
+    spec.option.timestep = 0.002
+    world = spec.worldbody
+    world.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.1])
+    box = world.add_body(name="object", pos=[0, 0, 2 * RADIUS + 0.02])
+    box.add_freejoint()
+    box.add_geom(name="object_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.05, 0.02], mass=BOX_MASS)
+    for i, (pos, axis) in enumerate((([0, -0.03, RADIUS], [1, 0, 0]), ([0, 0.03, RADIUS], [1, 0, 0]),
+                                     ([0, 0, 2 * RADIUS + 0.04 + RADIUS], [0, 1, 0]))):
+        body = world.add_body(name=f"f{i:02d}_b000", pos=pos)
+        body.add_freejoint()
+        half = 0.04 * np.asarray(axis, float)
+        body.add_geom(name=f"f{i:02d}_g000", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[RADIUS, 0, 0],
+                      fromto=np.r_[-half, half], mass=CAPSULE_MASS)
+    return spec.compile()
+
+
+def test_a_segment_between_the_object_and_the_ground_is_ground_pinched_and_statics_balance():
+    model = raft_scene()
+    data = mujoco.MjData(model)
+    for _ in range(500):  # 1 s: everything comes to rest
+        mujoco.mj_step(model, data)
+    support = object_support(model, data, GeomClasses.from_model(model))
+    g, tol = GRAVITY, 0.02 * (BOX_MASS + CAPSULE_MASS) * GRAVITY
+    # The two filaments under the box carry it and the filament on it: (M + m) g upward, all ground-pinched.
+    np.testing.assert_allclose(support.ground_pinched, [0.0, 0.0, (BOX_MASS + CAPSULE_MASS) * g], atol=tol)
+    assert list(support.by_part) == ["box"]  # the filament on top presses down on the box
+    np.testing.assert_allclose(support.by_part["box"], [0.0, 0.0, -CAPSULE_MASS * g], atol=tol)
+    assert not support.ground.any() and not support.pinched.any()
+    np.testing.assert_allclose(support.filament_total, [0.0, 0.0, BOX_MASS * g], atol=tol)

@@ -158,6 +158,7 @@ def test_curve_point_names_its_series_columns():
         displacement_m=0.1,
         pull_force_n=1.0,
         contact_pull_force_n=0.9,
+        ground_pinch_pull_force_n=0.2,
         force_n=np.array([0.0, 0.0, 1.0]),
         contact_force_n=np.array([0.0, 0.0, 0.9]),
         weld_force_n=np.array([0.0, 0.0, -1.5]),
@@ -169,4 +170,5 @@ def test_curve_point_names_its_series_columns():
     )
     series = point.as_series()
     assert series["force_n.z"] == 1.0 and series["weld_force_n.z"] == -1.5 and series["contacts.filament-object"] == 1
-    assert len(series) == 7 + 3 * 3 + len(KINDS)
+    assert series["ground_pinch_pull_force_n"] == 0.2
+    assert len(series) == 8 + 3 * 3 + len(KINDS)

@@ -321,8 +321,13 @@ def test_curve_file_reads_back_and_bad_files_name_the_problem(tmp_path):
     assert set(curve.contacts) >= {"filament-object", "filament-filament"}
     np.testing.assert_allclose(curve.pull_force_n, curve.force_n[:, 2])  # vertical pull
     assert row["peak.acn_total"] >= 0.0 and "peak.contacts.filament-object" in row
+    assert np.isfinite(curve.ground_pinch_pull_force_n).all()
+    assert row["ground_pinch_peak_force_n"] == pytest.approx(np.max(curve.ground_pinch_pull_force_n))
     with np.load(path) as archive:
+        older = {k: archive[k] for k in archive.files if k != "ground_pinch_pull_force_n"}  # logged before it
         columns = {k: archive[k] for k in archive.files if k != "pull_force_n"}
+    np.savez(tmp_path / "older.npz", **older)
+    assert np.isnan(read_curve(tmp_path / "older.npz").ground_pinch_pull_force_n).all()
     np.savez(tmp_path / "cut.npz", **columns)
     with pytest.raises(FileFormatError, match="cut.npz: key 'pull_force_n' is missing"):
         read_curve(tmp_path / "cut.npz")
