@@ -97,6 +97,8 @@ class PullMetrics:
     """Largest pull force of the second method's curve (`analyze_curve`'s `second_force_n`), N; NaN if none."""
     second_toughness_j: float = math.nan
     """The second method's F dx integral over the same span as `toughness_j`, J; NaN if none."""
+    span_points: int = 0
+    """Number of leading curve points `toughness_j` integrates (to the release; all of them otherwise)."""
 
     @property
     def toughness_is_lower_bound(self) -> bool:
@@ -157,6 +159,7 @@ def analyze_curve(
         travel_m=float(x[-1]),
         second_peak_force_n=float(np.max(second)) if with_second else math.nan,
         second_toughness_j=float(np.trapezoid(second[:end], x[:end])) if with_second and result else math.nan,
+        span_points=end,
     )
 
 

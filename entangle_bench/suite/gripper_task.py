@@ -215,10 +215,6 @@ class ScenePhysics(dm_mujoco.Physics):
         )
         return data.efc_force[rows[:3]].copy() if len(rows) else np.zeros(3)
 
-    def object_contact_force(self) -> np.ndarray:
-        """(3,) sum of the contact forces filaments exert on the object, world frame, N."""
-        return self.object_support().filament_total
-
     def object_support(self) -> ObjectSupport:
         """Forces on the object by source (filaments by part, pinches, ground), world frame, N."""
         return object_support(self.model.ptr, self.data.ptr, self.scene.geoms)

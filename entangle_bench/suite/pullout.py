@@ -330,9 +330,7 @@ class PullOut(DrapeTask[PullOutConfig]):
 
 def _ground_pinch(track: _PullTracking, result: PullMetrics) -> dict[str, float]:
     """Peak (N) and integral (J) of the ground-pinched pull force over the toughness's span (to the release)."""
-    x, f = np.asarray(track.displacement), np.asarray(track.ground_pinch_force)
-    end = len(x) if math.isnan(result.displacement_at_release_m) else \
-        int(np.searchsorted(x, result.displacement_at_release_m, side="right"))
+    x, f, end = np.asarray(track.displacement), np.asarray(track.ground_pinch_force), result.span_points
     toughness = float(np.trapezoid(f[:end], x[:end])) if result.result else math.nan
     return {"ground_pinch_peak_force_n": float(f.max()), "ground_pinch_toughness_j": toughness}
 

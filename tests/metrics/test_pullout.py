@@ -41,6 +41,7 @@ def test_triangle_releases_after_its_peak_with_the_area_as_toughness():
     xr = m.displacement_at_release_m
     below = x[(x > 0.02) & (f < 0.002)]
     assert xr == below[0]
+    assert x[m.span_points - 1] == xr  # the toughness integrates up to the release point
     expected = 0.5 * 0.02 - 0.5 * (0.5 * (0.04 - xr) / 0.02) * (0.04 - xr)
     assert m.toughness_j == pytest.approx(expected, rel=1e-9)
     assert m.travel_m == x[-1]
