@@ -185,6 +185,15 @@ def test_a_run_that_adds_seeds_summarizes_every_seed_of_its_conditions_and_only_
     assert main(base + ["--set", "phases.hold_time_s=0.2"]) == 0
     assert pd.read_csv(tmp_path / "summary.csv")["trials"].tolist() == [1]
     assert len(TrialLog(tmp_path / "trials.jsonl").rows()) == 3
+    # `report` rewrites the folder from the whole log: one condition label, or one group per hold time.
+    assert main(["report", str(tmp_path)]) == 0
+    assert pd.read_csv(tmp_path / "summary.csv")["trials"].tolist() == [3]
+    assert len(pd.read_csv(tmp_path / "trials.csv")) == 3
+    assert main(["report", str(tmp_path), "--by", "config.phases.hold_time_s"]) == 0
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert dict(zip(summary["condition"], summary["trials"]))[0.2] == 1 and sorted(summary["trials"]) == [1, 2]
+    assert main(["report", str(tmp_path), "--by", "config.no_such_field"]) == 2
+    assert main(["report", str(tmp_path / "missing")]) == 2
 
 
 def test_fields_at_their_neutral_value_stay_out_of_the_trial_id():

@@ -23,6 +23,7 @@ SUBCOMMANDS: dict[str, str] = {
     "compare": "compare",
     "references": "references",
     "describe": "describe",
+    "report": "report",
 }
 
 

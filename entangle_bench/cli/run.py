@@ -15,18 +15,14 @@ import math
 import sys
 from pathlib import Path
 
-import pandas as pd
-
 from entangle_bench import suites
 from entangle_bench.atomic import AtomicFile
 from entangle_bench.cli.interrupt import Interrupted
+from entangle_bench.cli.report import write_outputs
 from entangle_bench.errors import ParameterError, UnknownNameError
 from entangle_bench.executors import EXECUTORS, make_executor
-from entangle_bench.metrics.stats import success_table
-from entangle_bench.plots import plot_success_vs
 from entangle_bench.presets import PRESETS
-from entangle_bench.pullout import write_report
-from entangle_bench.results import FAILED, LOG_NAME, TrialLog, atomic_write_csv, write_trials
+from entangle_bench.results import LOG_NAME, TrialLog
 from entangle_bench.runner import TrialSpec, Watch, run_trials, trial_id
 from entangle_bench.stability import envelope_warnings
 from entangle_bench.suite.gripper_task import GripperTaskConfig
@@ -161,33 +157,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     rows = log.frame()
     rows = rows[rows["trial_id"].isin(_suite_ids(specs, {int(seed) for seed in rows["seed"].dropna()}))]
-    write_trials(rows, out)
-    params = [c for c in rows.columns if c.startswith("param.")]
-    summary = success_table(rows, ["condition"])
-    atomic_write_csv(summary, out / "summary.csv")
-    with pd.option_context("display.width", 160, "display.max_columns", 20):
-        print(summary.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    if "param.offset_m" in params and rows["param.offset_m"].nunique() > 1:
-        path = plot_success_vs(rows, "param.offset_m", out / "success_vs_offset.png")
-        print(f"plot: {path}")
-    for column in params:
-        if column != "param.offset_m" and rows[column].nunique() > 1:
-            path = plot_success_vs(rows, column, out / f"success_vs_{column.removeprefix('param.')}.png")
-            print(f"plot: {path}")
-    report = write_report(rows, out)
-    if report:
-        table = pd.read_csv(report[0])
-        columns = ["condition", "scored", "released", "slid_off", "held", "peak_force_median_n",
-                   "toughness_median_j", "contact_scored", "contact_toughness_median_j", "reference_toughness_j"]
-        with pd.option_context("display.width", 160, "display.max_columns", 20):
-            print(table[columns].to_string(index=False, float_format=lambda v: f"{v:.3g}"))
-        print("pull-out: " + "  ".join(str(p) for p in report))
+    code = write_outputs(rows, out)
     print(f"rows: {out / 'trials.csv'}  summary: {out / 'summary.csv'}"
           + (f" (every seed of these conditions in the log: {len(rows)} trials)" if len(rows) > len(specs) else ""))
-    failed = rows[rows["outcome"] == FAILED]
-    if len(failed):
-        print(f"entangle-bench: {len(failed)} trial(s) failed to run (outcome '{FAILED}', not scored; see "
-              f"failed_reason in {out / 'trials.csv'}); rerun the same command to retry them. First: "
-              f"{failed['failed_reason'].iloc[0]}", file=sys.stderr)
-        return 1
-    return 0
+    return code
