@@ -1,6 +1,7 @@
 """Stability map (`entangle_bench.studies.stability_map`): run or replot it and print the envelope tables.
 
-Usage: python scripts/stability_map.py [--out results/stability] [--full] [--duration 0.6]
+Usage: python scripts/stability_map.py [--out results/stability] [--full] [--duration 0.6] [--set a.b=v ...]
+       python scripts/stability_map.py --candidate --out results/stability/candidate --integrators euler
        python scripts/stability_map.py --from-csv results/stability   (replot, summarize)
 
 Writes stability_map.{csv,png} and coil_map.{csv,png}, prints the ENVELOPE table kept in
@@ -19,8 +20,19 @@ import mujoco
 import pandas as pd
 
 from entangle_bench import stability
+from entangle_bench.calibration import candidate_overrides
+from entangle_bench.errors import EntangleBenchError
 from entangle_bench.results import atomic_write_csv
 from entangle_bench.studies import stability_map
+
+
+def candidate_map_overrides() -> list[str]:
+    """The calibration candidate's overrides a map can take: joints, clamp, twist, contact, cone and solver
+    settings; not its geometry (the map's modulus axis is the reference filament's), phases or swept fields.
+    Its impratio applies in every phase of the probe (the candidate's applies from the lift on)."""
+    keep = ("gripper.filament.joints", "gripper.filament.stretch_at_clamp", "gripper.filament.twist_ratio",
+            "contact.", "effects.", "numerics.impratio=")
+    return [o for o in candidate_overrides() if o.startswith(keep)]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -37,6 +49,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--timesteps", nargs="+", type=float, default=list(stability.MAP_TIMESTEPS_S)
     )
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE",
+                        help="override a probe field on every point (not a swept one), e.g. contact.timeconst_s=0.002")
+    parser.add_argument("--candidate", action="store_true",
+                        help="map the grasp calibration candidate's joints, contact and numerics (its overrides "
+                             "other than the swept fields, geometry and phases), then --set")
     parser.add_argument(
         "--from-csv",
         type=Path,
@@ -44,6 +61,13 @@ def main(argv: list[str] | None = None) -> int:
         help="replot and summarize the CSVs of an earlier run in this folder instead of sweeping",
     )
     args = parser.parse_args(argv)
+    overrides = (candidate_map_overrides() if args.candidate else []) + args.overrides
+    try:
+        stability_map.check_overrides(overrides)
+    except EntangleBenchError as exc:
+        parser.error(str(exc))
+    if overrides:
+        print("overrides: " + " ".join(overrides))
     if args.from_csv is not None:
         frame = pd.read_csv(args.from_csv / "stability_map.csv")
         coils = pd.read_csv(args.from_csv / "coil_map.csv")
@@ -51,10 +75,10 @@ def main(argv: list[str] | None = None) -> int:
         # Unstable probes are the point here: keep MuJoCo from printing (and logging) their warnings.
         mujoco.set_mju_user_warning(lambda text: None)
         frame = stability_map.sweep(
-            args.integrators, args.segments, args.moduli, args.timesteps, args.duration, args.full
+            args.integrators, args.segments, args.moduli, args.timesteps, args.duration, args.full, overrides
         )
         atomic_write_csv(frame, args.out / "stability_map.csv")
-        coils = stability_map.coil_sweep(args.timesteps, args.duration)
+        coils = stability_map.coil_sweep(args.timesteps, args.duration, overrides)
         atomic_write_csv(coils, args.out / "coil_map.csv")
     stability_map.write_outputs(frame, coils, args.out)
     table = stability_map.boundary(frame)

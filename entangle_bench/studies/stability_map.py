@@ -14,6 +14,10 @@ euler and rk4 at 24 and 64 segments found no column where a stable timestep had 
 Coil sweep: one filament, with every contact on and with none, curling to coils of 2.1-12.5 mm (E 1-10 MPa,
 euler and implicitfast): the largest timestep stable for two seeds, against the coil rate c kappa^2.
 
+Both take `overrides` (`a.b=value`, as `--set`) applied to every probe: the map of other numerics or contact
+settings (e.g. the grasp calibration candidate's hinge chain and stiff elliptic contact). The swept fields
+(SWEPT_FIELDS) cannot be overridden.
+
 `boundary` turns a map into the ENVELOPE table kept in `entangle_bench.stability` (a test checks that the
 stored map gives the stored table). `scripts/stability_map.py` runs it (about 6 minutes on one core) and
 prints the tables.
@@ -40,6 +44,8 @@ from tqdm import tqdm  # noqa: E402
 from entangle_bench import effects as fx  # noqa: E402
 from entangle_bench import stability  # noqa: E402
 from entangle_bench.atomic import atomic_savefig  # noqa: E402
+from entangle_bench.config import apply_overrides  # noqa: E402
+from entangle_bench.errors import ParameterError  # noqa: E402
 from entangle_bench.filament import REFERENCE_COIL_RADIUS_M, FilamentParams  # noqa: E402
 from entangle_bench.gripper import GripperParams  # noqa: E402
 from entangle_bench.presets import PRESETS  # noqa: E402
@@ -52,6 +58,24 @@ PROBE_TASK = "probe/curl_in_air"
 #: Simulated seconds of each map probe.
 MAP_DURATION_S = 0.6
 
+#: Fields every map point sets itself: an override of one of them is refused.
+SWEPT_FIELDS = (
+    "numerics.integrator",
+    "numerics.timestep_s",
+    "gripper.filament.n_segments",
+    "gripper.filament.youngs_modulus_pa",
+    "gripper.filament.curvature_calibration",
+)
+
+
+def check_overrides(overrides: Sequence[str]) -> None:
+    """ParameterError naming an override of a swept field (SWEPT_FIELDS) or one the probe has no field for."""
+    for item in overrides:
+        key = item.partition("=")[0].strip()
+        if key in SWEPT_FIELDS:
+            raise ParameterError(f"--set {item!r}: {key} is swept by the map; the map sets {', '.join(SWEPT_FIELDS)}")
+    apply_overrides(probe_config("euler", 8, 1e6, 1e-3), overrides)
+
 
 def probe(config: ProbeConfig, seed: int = 0, limits: WatchdogLimits | None = None) -> TrialResult:
     """One stability probe through the runner, under the probe's watchdog limits unless `limits` is given."""
@@ -59,9 +83,14 @@ def probe(config: ProbeConfig, seed: int = 0, limits: WatchdogLimits | None = No
 
 
 def probe_config(
-    integrator: str, n_segments: int, modulus_pa: float, timestep_s: float, duration_s: float = MAP_DURATION_S
+    integrator: str,
+    n_segments: int,
+    modulus_pa: float,
+    timestep_s: float,
+    duration_s: float = MAP_DURATION_S,
+    overrides: Sequence[str] = (),
 ) -> ProbeConfig:
-    """The map's filament array with the map's numerics for `integrator` (Pa, s)."""
+    """The map's filament array with the map's numerics for `integrator` (Pa, s), then `overrides`."""
     numerics = dataclasses.replace(
         stability.base_numerics(integrator), timestep_s=timestep_s, integrator=integrator
     )
@@ -72,7 +101,7 @@ def probe_config(
         curvature_calibration=reference.calibration * modulus_pa / reference.youngs_modulus_pa,
     )
     gripper = dataclasses.replace(stability.MAP_GRIPPER, filament=filament)
-    return ProbeConfig(gripper=gripper, numerics=numerics, duration_s=duration_s)
+    return apply_overrides(ProbeConfig(gripper=gripper, numerics=numerics, duration_s=duration_s), overrides)
 
 
 def coil_config(
@@ -82,8 +111,9 @@ def coil_config(
     timestep_s: float,
     contact: bool,
     duration_s: float = MAP_DURATION_S,
+    overrides: Sequence[str] = (),
 ) -> ProbeConfig:
-    """One reference filament curling to a coil of `radius_m` (m), every contact on or none.
+    """One reference filament curling to a coil of `radius_m` (m), every contact on or none, then `overrides`.
 
     Segments: at most MAX_TURN_PER_SEGMENT_RAD of rest rotation each, at least 16.
     """
@@ -98,7 +128,8 @@ def coil_config(
     gripper = GripperParams(filament=filament, ring_diameters_m=(0.0,), ring_counts=(1,))
     numerics = dataclasses.replace(stability.base_numerics(integrator), timestep_s=timestep_s)
     effects = fx.Effects() if contact else fx.NO_CONTACT
-    return ProbeConfig(gripper=gripper, effects=effects, numerics=numerics, duration_s=duration_s)
+    config = ProbeConfig(gripper=gripper, effects=effects, numerics=numerics, duration_s=duration_s)
+    return apply_overrides(config, overrides)
 
 
 def _timed_probe(config: ProbeConfig, seed: int = 0) -> tuple[TrialResult, float]:
@@ -109,7 +140,9 @@ def _timed_probe(config: ProbeConfig, seed: int = 0) -> tuple[TrialResult, float
 
 
 def coil_sweep(
-    timesteps_s: Sequence[float] = stability.MAP_TIMESTEPS_S, duration_s: float = MAP_DURATION_S
+    timesteps_s: Sequence[float] = stability.MAP_TIMESTEPS_S,
+    duration_s: float = MAP_DURATION_S,
+    overrides: Sequence[str] = (),
 ) -> pd.DataFrame:
     """Largest stable timestep (two seeds) per contact, integrator, modulus and coil radius."""
     columns = [
@@ -125,7 +158,7 @@ def coil_sweep(
     ):
         largest, first_unstable, wall = 0.0, float("nan"), 0.0
         for dt in sorted(timesteps_s, reverse=True):
-            config = coil_config(integrator, radius, modulus, dt, contact, duration_s)
+            config = coil_config(integrator, radius, modulus, dt, contact, duration_s, overrides)
             results = [_timed_probe(config, seed=s) for s in (0, 1)]
             wall += sum(w for _, w in results)
             if all(r.stable for r, _ in results):
@@ -200,6 +233,7 @@ def sweep(
     timesteps_s: Sequence[float] = stability.MAP_TIMESTEPS_S,
     duration_s: float = MAP_DURATION_S,
     full: bool = False,
+    overrides: Sequence[str] = (),
 ) -> pd.DataFrame:
     """Run the map; one row per (integrator, segments, modulus, timestep); `full` measures inferred points too."""
     columns = [(i, n, e) for i in integrators for n in segments for e in moduli_pa]
@@ -227,7 +261,7 @@ def sweep(
                     }
                 )
                 continue
-            result, wall = _timed_probe(probe_config(integrator, n, modulus, dt, duration_s))
+            result, wall = _timed_probe(probe_config(integrator, n, modulus, dt, duration_s, overrides))
             found_stable = found_stable or result.stable
             rows.append(
                 {

@@ -16,10 +16,15 @@ import numpy as np
 import pytest
 
 from entangle_bench import stability
+from entangle_bench.calibration import candidate_overrides
 from entangle_bench.runner import TrialResult, simulate
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
 from entangle_bench.suite.probe import ProbeConfig
 from entangle_bench.watchdog import WatchdogLimits
+
+#: Pseudo-preset of the hard cases: the grasp calibration candidate (`calibration.candidate_overrides`: 40
+#: hinge segments, Euler 0.25 ms, stiff elliptic contact) with the short sequence's phases.
+CANDIDATE = "candidate"
 
 #: Watchdog bounds asserted by every hard case (the trial defaults): 20 m/s, 5 mm after 0.2 s, energy.
 LIMITS = WatchdogLimits()
@@ -75,9 +80,12 @@ def limits() -> WatchdogLimits:
 
 @pytest.fixture
 def resolve_case() -> Callable[..., Any]:
-    """Builder: the short top-drape trial of `task` with a preset and the case's overrides."""
+    """Builder: the short top-drape trial of `task` with a preset (or CANDIDATE: the calibration candidate's
+    gripper, contact and numerics) and the case's overrides."""
 
     def build(preset: str, overrides: list[str], task: str = "top_drape/eight_branch_tree") -> Any:
+        if preset == CANDIDATE:
+            return resolve_config(task, None, candidate_overrides() + SHORT_SEQUENCE + overrides)
         return resolve_config(task, preset, SHORT_SEQUENCE + overrides)
 
     return build

@@ -8,10 +8,11 @@ import pytest
 
 from entangle_bench import effects as fx
 from entangle_bench import stability
+from entangle_bench.errors import ParameterError
 from entangle_bench.filament import FilamentParams
 from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import PRESETS, get_preset
-from entangle_bench.studies.stability_map import boundary, probe, probe_config
+from entangle_bench.studies.stability_map import boundary, check_overrides, probe, probe_config
 from entangle_bench.suite import TASKS, resolve_config
 from entangle_bench.suite.probe import ProbeConfig
 
@@ -154,3 +155,16 @@ def test_presets_use_the_numerics_the_map_was_measured_with():
         measured = stability.base_numerics(preset.numerics.integrator)
         same_step = dataclasses.replace(preset.numerics, timestep_s=measured.timestep_s)
         assert same_step == measured, name
+
+
+def test_map_overrides_reach_every_probe_and_spare_the_swept_fields():
+    """`--set` on the map: applied on top of each point's own settings; a swept field is refused by name."""
+    config = probe_config("euler", 40, 3e6, 2.5e-4, overrides=["contact.timeconst_s=0.002",
+                                                               "gripper.filament.joints=hinges"])
+    assert (config.contact.timeconst_s, config.gripper.filament.joints) == (0.002, "hinges")
+    assert (config.numerics.timestep_s, config.gripper.filament.n_segments) == (2.5e-4, 40)
+    assert config.gripper.filament.youngs_modulus_pa == 3e6
+    with pytest.raises(ParameterError, match="numerics.timestep_s is swept by the map"):
+        check_overrides(["numerics.timestep_s=0.001"])
+    with pytest.raises(ParameterError, match="contact.bogus"):
+        check_overrides(["contact.bogus=1"])

@@ -19,7 +19,11 @@ from entangle_bench.gripper import GripperParams
 from entangle_bench.presets import get_preset
 from entangle_bench.suite.probe import ProbeConfig
 
-PRESETS = ["fast", "balanced", pytest.param("accurate", marks=pytest.mark.slow)]
+from .conftest import CANDIDATE
+
+#: The presets, and the calibration candidate's numerics (`conftest.CANDIDATE`; minutes per case, slow).
+PRESETS = ["fast", "balanced", pytest.param("accurate", marks=pytest.mark.slow),
+           pytest.param(CANDIDATE, marks=pytest.mark.slow)]
 ALL_PRESETS = ["fast", "balanced", "accurate"]
 REFERENCE = FilamentParams()
 
@@ -169,7 +173,7 @@ def test_sixty_second_hold(preset, resolve_case, run_trial_case, limits):
     assert_sound(run, limits)
 
 
-@pytest.mark.parametrize("preset", ["fast", "balanced", "accurate"])
+@pytest.mark.parametrize("preset", ["fast", "balanced", "accurate", pytest.param(CANDIDATE, marks=pytest.mark.slow)])
 def test_largest_timestep_the_preset_allows(preset, resolve_case, run_trial_case, limits):
     """The envelope's largest timestep for the preset's own filament, in the contact-rich trial."""
     config = resolve_case(preset, [])
