@@ -99,6 +99,34 @@ MAP_NUMERICS: dict[str, Numerics] = {
 }
 
 
+#: The map of the clamp's stretch joint (`FilamentParams.stretch_at_clamp`, the grasp calibration candidate's
+#: filament): the same probe with the candidate's hinge chain, stretch joint, rest twist, stiff elliptic contact
+#: (2 ms time constant, impedance 0.99, friction 2) and impratio 10 (`scripts/stability_map.py --candidate`,
+#: results/stability/candidate/stability_map.csv). Euler only, at 24-64 segments; timesteps 0.125-1 ms (a 2 ms
+#: contact time constant needs dt <= 1 ms, so 1 ms is the largest measured, not a limit found); one value per
+#: modulus of STRETCH_MAP_MODULI_PA (7 MPa added to bracket the candidate's 6.1 MPa equivalent). The stretch
+#: joint's explicit Kelvin-Voigt damping is what costs the step: without it the probe at 40 segments, 10 MPa,
+#: 0.25 ms is stable, with it alone unstable.
+STRETCH_MAP_MODULI_PA = (0.05e6, 0.2e6, 1e6, 3e6, 7e6, 10e6, 30e6)
+STRETCH_MAP_TIMESTEPS_S = (0.125e-3, 0.25e-3, 0.5e-3, 1e-3)
+STRETCH_ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
+    "euler": {
+        24: (0.001, 0.001, 0.001, 0.001, 0.000125, 0, 0),
+        40: (0.001, 0.001, 0.001, 0.0005, 0.000125, 0, 0),
+        64: (0.001, 0.001, 0.001, 0.0005, 0, 0.000125, 0),
+    },
+}
+
+
+def envelope_of(filament: FilamentParams) -> tuple[dict[str, dict[int, tuple[float, ...]]], tuple[float, ...],
+                                                     tuple[float, ...]]:
+    """The measured table for `filament` (STRETCH_ENVELOPE with a stretch joint at the clamp, else ENVELOPE),
+    with its moduli (Pa) and timesteps (s)."""
+    if filament.stretch_at_clamp:
+        return STRETCH_ENVELOPE, STRETCH_MAP_MODULI_PA, STRETCH_MAP_TIMESTEPS_S
+    return ENVELOPE, MAP_MODULI_PA, MAP_TIMESTEPS_S
+
+
 def base_numerics(integrator: str) -> Numerics:
     """Numerics the map used for `integrator` (timestep: the default 2 ms, varied by the map)."""
     return MAP_NUMERICS[integrator]
@@ -121,8 +149,10 @@ def max_stable_timestep_s(
     n_segments: float,
     modulus_pa: float,
     table: dict[str, dict[int, tuple[float, ...]]] | None = None,
+    moduli_pa: tuple[float, ...] = MAP_MODULI_PA,
 ) -> float | None:
-    """Largest measured stable timestep for reference-equivalent segments and modulus, s.
+    """Largest measured stable timestep for reference-equivalent segments and modulus, s, in `table`
+    (ENVELOPE by default) whose values are per modulus of `moduli_pa`.
 
     Conservative lookup: the smallest value of the measured points around the requested one (the
     segment rows and moduli just below and just above it; stability is not monotone in either: soft
@@ -135,7 +165,7 @@ def max_stable_timestep_s(
     if n_segments > rows[-1] * (1 + 1e-9):
         return None
     near_rows = _bracket(rows, n_segments)
-    moduli = MAP_MODULI_PA[: len(by_n[rows[0]])]
+    moduli = moduli_pa[: len(by_n[rows[0]])]
     if not moduli[0] * (1 - 1e-9) <= modulus_pa <= moduli[-1] * (1 + 1e-9):
         return None
     near_moduli = _bracket(list(moduli), modulus_pa)
@@ -235,23 +265,25 @@ def envelope_warnings(config: object) -> list[str]:
     )
     if not (math.isclose(n_eq, fil.n_segments) and math.isclose(e_eq, fil.youngs_modulus_pa)):
         where += " (reference-filament equivalent)"
-    dt_max = max_stable_timestep_s(num.integrator, n_eq, e_eq)
-    if num.integrator not in ENVELOPE:
+    table, moduli, timesteps = envelope_of(fil)
+    which = "stability map of the clamp's stretch joint" if fil.stretch_at_clamp else "stability map"
+    dt_max = max_stable_timestep_s(num.integrator, n_eq, e_eq, table, moduli)
+    if num.integrator not in table:
         out.append(
-            f"the {num.integrator} integrator is not in the measured stability map "
-            f"(mapped: {', '.join(ENVELOPE)}); stability is unknown"
+            f"the {num.integrator} integrator is not in the measured {which} "
+            f"(mapped: {', '.join(table)}); stability is unknown"
         )
     elif dt_max is None:
         out.append(
-            f"{where} with the {num.integrator} integrator lies outside the measured stability map "
-            f"(up to {max(MAP_SEGMENTS)} reference segments, "
-            f"E up to {max(MAP_MODULI_PA) / 1e6:g} MPa); "
+            f"{where} with the {num.integrator} integrator lies outside the measured {which} "
+            f"(up to {max(table[num.integrator])} reference segments, "
+            f"E up to {max(moduli) / 1e6:g} MPa); "
             "stability is unknown"
         )
     elif num.timestep_s > dt_max * (1 + 1e-9):
-        limit = f"{dt_max * 1e3:g} ms" if dt_max > 0 else f"none down to {min(MAP_TIMESTEPS_S):g} s"
+        limit = f"{dt_max * 1e3:g} ms" if dt_max > 0 else f"none down to {min(timesteps):g} s"
         out.append(
-            f"numerics.timestep_s = {num.timestep_s:g} s exceeds the stable envelope of the "
+            f"numerics.timestep_s = {num.timestep_s:g} s exceeds the stable envelope ({which}) of the "
             f"{num.integrator} integrator for {where} (largest stable timestep measured: {limit})"
         )
     coil = coil_timestep_limit_s(config)
@@ -302,8 +334,9 @@ def stable_timestep_s(config: object) -> float | None:
     None when the configuration lies outside the rod map.
     """
     fil = config.gripper.filament
+    table, moduli, _ = envelope_of(fil)
     rod = max_stable_timestep_s(
-        config.numerics.integrator, equivalent_segments(fil), equivalent_modulus_pa(fil)
+        config.numerics.integrator, equivalent_segments(fil), equivalent_modulus_pa(fil), table, moduli
     )
     return None if rod is None else min(rod, coil_timestep_limit_s(config))
 

@@ -8,6 +8,7 @@ import pytest
 
 from entangle_bench import effects as fx
 from entangle_bench import stability
+from entangle_bench.calibration import candidate_overrides
 from entangle_bench.errors import ParameterError
 from entangle_bench.filament import FilamentParams
 from entangle_bench.gripper import GripperParams
@@ -33,6 +34,21 @@ def test_envelope_table_is_the_stored_map():
     bounded = coils[(largest > 0) & (largest < max(stability.MAP_TIMESTEPS_S))]
     assert len(bounded) > 0
     assert bounded["stable_number"].min() >= stability.COIL_TIMESTEP_NUMBER
+
+
+def test_stretch_envelope_table_is_the_stored_map():
+    """STRETCH_ENVELOPE is what the stored map of the stretch joint (`--candidate`) gives, and it is what a
+    filament with the stretch joint is looked up in: the calibration candidate's 0.25 ms lies outside it."""
+    frame = pd.read_csv(STORED_MAP / "candidate" / "stability_map.csv")
+    assert sorted(frame["youngs_modulus_pa"].unique()) == list(stability.STRETCH_MAP_MODULI_PA)
+    assert boundary(frame) == stability.STRETCH_ENVELOPE
+    stretched = resolve_config("eight_branch_tree", None, candidate_overrides())
+    assert stretched.gripper.filament.stretch_at_clamp
+    assert stability.stable_timestep_s(stretched) == 0.125e-3
+    assert any("stretch joint" in w and "0.125 ms" in w for w in stability.envelope_warnings(stretched))
+    plain = dataclasses.replace(stretched, gripper=dataclasses.replace(
+        stretched.gripper, filament=dataclasses.replace(stretched.gripper.filament, stretch_at_clamp=False)))
+    assert stability.stable_timestep_s(plain) > 0.25e-3
 
 
 def test_every_preset_timestep_is_inside_the_measured_table():

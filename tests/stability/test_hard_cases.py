@@ -60,7 +60,7 @@ def test_very_stiff_finely_segmented_filaments(preset, resolve_case, run_trial_c
 
     Outside the euler presets' envelope at their own timestep: they run at the envelope's 1 ms.
     """
-    n = max(FINE_SEGMENTS, get_preset(preset).n_segments)
+    n = max(FINE_SEGMENTS, resolve_case(preset, []).gripper.filament.n_segments)
     config = resolve_case(
         preset,
         [
@@ -76,7 +76,8 @@ def test_very_stiff_finely_segmented_filaments(preset, resolve_case, run_trial_c
 
 @pytest.mark.parametrize("preset", PRESETS)
 def test_very_soft_filaments(preset, resolve_case, run_trial_case, limits):
-    """E = 0.05 MPa (same coil): the filament hangs like a string, l / l_g = 35."""
+    """E = 0.05 MPa (same coil): the filament hangs like a string, l / l_g = 35 (27 for the candidate's 1 mm
+    radius)."""
     config = resolve_case(
         preset,
         [
@@ -84,7 +85,7 @@ def test_very_soft_filaments(preset, resolve_case, run_trial_case, limits):
             f"gripper.pressure_pa={same_coil_pressure(5e4)}",
         ],
     )
-    assert config.gripper.filament.length_m / config.gripper.filament.gravity_length_m > 30
+    assert config.gripper.filament.length_m / config.gripper.filament.gravity_length_m > 25
     run = run_trial_case(config)
     assert_sound(run, limits)
     assert_envelope_honest(run)
