@@ -49,6 +49,10 @@ REFERENCE_PRESSURE_PA = 172e3
 #: Default free coil radius of the reference filament at REFERENCE_PRESSURE_PA, m (our calibration target).
 REFERENCE_COIL_RADIUS_M = 0.0125
 
+#: Stretch-joint armature per filament mass that gives a spring E A / L on it the first axial frequency of a
+#: clamped-free rod, (pi / 2) sqrt(E A / (m L)): k / (4 m / pi^2) = (pi / 2)^2 k / m.
+MODAL_STRETCH_ARMATURE_RATIO = 4.0 / math.pi**2
+
 
 @dataclass(frozen=True)
 class FilamentParams:
@@ -83,6 +87,11 @@ class FilamentParams:
     """Lump the filament's axial compliance L / (E A) into a slide joint at the clamp (stiffness E A / L, N/m,
     Kelvin-Voigt damping): its tension then stays what its stretch allows, as a silicone tube's does, instead of
     whatever a kinematic hub demands of an inextensible chain caught on an object."""
+    stretch_armature_ratio: float = 0.0
+    """Armature of the stretch joint as a fraction of the filament's mass, kg/kg (needs `stretch_at_clamp`):
+    MODAL_STRETCH_ARMATURE_RATIO = 4 / pi^2 gives the lumped axial spring alone the rod's first axial
+    frequency (pi / 2) sqrt(E A / (m L)); without it the joint can move the first segment alone, a mode far
+    stiffer than any the rod has, whose explicit damping costs Euler its step (results/stability/candidate)."""
     joints: JointModel = "ball"
     """How each segment joins its parent: "hinges" (twist, out-of-plane and in-plane bending hinges with
     stiffness GJ, E I_side and E I_bend per segment length: right in 3D) or "ball" (one ball joint with an
@@ -110,6 +119,10 @@ class FilamentParams:
             check_range("filament.curvature_calibration", self.curvature_calibration, 0.0, None)
         check_choice("filament.joints", self.joints, ("hinges", "ball"))
         check_range("filament.twist_ratio", self.twist_ratio, -2.0, 2.0)
+        check_range("filament.stretch_armature_ratio", self.stretch_armature_ratio, 0.0, 10.0)
+        if self.stretch_armature_ratio > 0 and not self.stretch_at_clamp:
+            raise ParameterError(f"filament.stretch_armature_ratio = {self.stretch_armature_ratio:g} needs "
+                                 "filament.stretch_at_clamp = true (it is the armature of that joint)")
 
     @property
     def segment_length_m(self) -> float:
@@ -341,7 +354,8 @@ def add_filament(
         if j == 0 and params.stretch_at_clamp:
             k = params.axial_stiffness_n_m
             body.add_joint(name=stretch_name(index), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=(1.0, 0.0, 0.0),
-                           stiffness=k, damping=k * params.damping_time_s)
+                           stiffness=k, damping=k * params.damping_time_s,
+                           armature=params.stretch_armature_ratio * params.linear_density_kg_m * params.length_m)
         if params.joints == "ball":
             stiffness = scale * params.bending_stiffness_nm2 / ds
             body.add_joint(

@@ -54,7 +54,7 @@ from entangle_bench.watchdog import Watchdog, WatchdogLimits, WatchdogStats, Wat
 
 #: Config fields added after results were logged, at the value that reproduces the behaviour from before them.
 #: At that value a field stays out of the trial id, so the ids of those logs (and their resume) do not change.
-ID_NEUTRAL_FIELDS: dict[str, Any] = {"contact.filament_friction": None}
+ID_NEUTRAL_FIELDS: dict[str, Any] = {"contact.filament_friction": None, "gripper.filament.stretch_armature_ratio": 0.0}
 
 
 def trial_id(task: str, config: Any, seed: int) -> str:

@@ -8,7 +8,7 @@ import pytest
 
 from entangle_bench import effects as fx
 from entangle_bench.errors import ParameterError
-from entangle_bench.filament import REFERENCE_COIL_RADIUS_M, FilamentParams
+from entangle_bench.filament import MODAL_STRETCH_ARMATURE_RATIO, REFERENCE_COIL_RADIUS_M, FilamentParams, stretch_name
 from entangle_bench.scene import step_until_rest
 
 
@@ -47,14 +47,16 @@ def test_actuated_coil_radius_matches_curvature(single_filament_scene):
     assert fit_circle_xz(line) * kappa == pytest.approx(1.0, abs=0.02)
 
 
-@pytest.mark.parametrize("joints", ["ball", "hinges"])
-def test_stretch_at_clamp_carries_the_hanging_weight_by_hookes_law(single_filament_scene, joints):
+@pytest.mark.parametrize("joints, armature", [("ball", 0.0), ("hinges", 0.0), ("hinges", MODAL_STRETCH_ARMATURE_RATIO)])
+def test_stretch_at_clamp_carries_the_hanging_weight_by_hookes_law(single_filament_scene, joints, armature):
     # The slide joint at the clamp holds the whole filament: extension W / (E A / L) at rest, and the
-    # clamp's tension is then bounded by the stretch (E A / L), not by what a kinematic hub demands.
+    # clamp's tension is then bounded by the stretch (E A / L), not by what a kinematic hub demands. The
+    # joint's armature changes no equilibrium.
     scene = single_filament_scene(effects=fx.Effects(gravity=True, filament_self_contact=False,
                                                      filament_filament_contact=False, ground_contact=False,
                                                      filament_object_contact=False),
-                                  stretch_at_clamp=True, joints=joints, youngs_modulus_pa=0.05e6)
+                                  stretch_at_clamp=True, stretch_armature_ratio=armature, joints=joints,
+                                  youngs_modulus_pa=0.05e6)
     params = scene.config.gripper.filament
     straight = settled_centerline(scene, gravity=(0.0, 0.0, 0.0))
     hanging = settled_centerline(scene, gravity=(0.0, 0.0, -9.81))
@@ -62,6 +64,39 @@ def test_stretch_at_clamp_carries_the_hanging_weight_by_hookes_law(single_filame
     assert expected > 1e-3  # a soft filament, so the stretch is well above the solver's tolerance
     assert straight[0, 2] - hanging[0, 2] == pytest.approx(expected, rel=0.01)  # the clamp end moved down
     assert np.linalg.norm(np.diff(hanging, axis=0), axis=1).sum() == pytest.approx(params.length_m, rel=1e-9)
+
+
+@pytest.mark.parametrize("pressure_pa", [0.0, 172e3])
+def test_stretch_armature_keeps_the_joint_below_the_rods_first_axial_frequency(single_filament_scene, pressure_pa):
+    """The stretch joint's fastest motion, sqrt(k / m_eff) with m_eff = 1 / (M^-1)_ss (every other joint free),
+    against a clamped-free rod's first axial frequency (pi / 2) sqrt(E A / (m L)): with the modal armature at or
+    below it, straight and coiled; without armature a coil lets the joint move little more than the first
+    segments (m_eff < 0.1 m), a mode over twice as fast, which the explicit damping cannot follow."""
+    ratios = {}
+    for armature in (0.0, MODAL_STRETCH_ARMATURE_RATIO):
+        scene = single_filament_scene(n_segments=40, joints="hinges", stretch_at_clamp=True,
+                                      stretch_armature_ratio=armature)
+        model, data = scene.model, mujoco.MjData(scene.model)
+        scene.gripper.set_pressure(model, pressure_pa, np.array([0.0]))
+        data.qpos[:] = model.qpos_spring  # the rest shape: straight, or the coil of 172 kPa
+        mujoco.mj_forward(model, data)
+        mass = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, mass)
+        dof = model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, stretch_name(0))]
+        params = scene.config.gripper.filament
+        m_eff = 1.0 / np.linalg.inv(mass)[dof, dof]
+        rod = math.pi / 2 * math.sqrt(params.axial_stiffness_n_m / params.mass_kg)
+        ratios[armature] = math.sqrt(params.axial_stiffness_n_m / m_eff) / rod
+    assert ratios[MODAL_STRETCH_ARMATURE_RATIO] <= 1.0
+    if pressure_pa > 0:
+        assert ratios[0.0] > 2.0
+    else:  # straight: the joint moves the whole filament, 2 / pi of the rod's frequency
+        assert ratios[0.0] == pytest.approx(2 / math.pi, rel=1e-6)
+
+
+def test_stretch_armature_needs_the_stretch_joint():
+    with pytest.raises(ParameterError, match="stretch_at_clamp"):
+        FilamentParams(stretch_armature_ratio=0.4)
 
 
 def test_stiff_cantilever_matches_small_deflection_formula(single_filament_scene):

@@ -51,6 +51,26 @@ def test_stretch_envelope_table_is_the_stored_map():
     assert stability.stable_timestep_s(plain) > 0.25e-3
 
 
+def test_armature_envelope_table_is_the_stored_map():
+    """ARMATURE_STRETCH_ENVELOPE is the stored map with the stretch joint's modal armature, a stretch joint
+    with that armature is looked up in it (the candidate's filament: 0.5 ms, not 0.125 ms; the coil limit then
+    binds), and the map holds a longer step than the one without armature in no column less."""
+    frame = pd.read_csv(STORED_MAP / "candidate_armature" / "stability_map.csv")
+    assert boundary(frame) == stability.ARMATURE_STRETCH_ENVELOPE
+    for n, row in stability.ARMATURE_STRETCH_ENVELOPE["euler"].items():
+        assert all(a >= b for a, b in zip(row, stability.STRETCH_ENVELOPE["euler"][n]))
+    config = resolve_config("eight_branch_tree", None, [*candidate_overrides(), "numerics.timestep_s=0.0005",
+                                                       "gripper.filament.stretch_armature_ratio=0.405"])
+    fil = config.gripper.filament
+    table, moduli, _ = stability.envelope_of(fil)
+    assert table is stability.ARMATURE_STRETCH_ENVELOPE
+    assert stability.max_stable_timestep_s("euler", stability.equivalent_segments(fil),
+                                           stability.equivalent_modulus_pa(fil), table, moduli) == 0.5e-3
+    warnings = stability.envelope_warnings(config)
+    assert not any("stable envelope" in w for w in warnings)
+    assert stability.stable_timestep_s(config) == stability.coil_timestep_limit_s(config) < 0.5e-3
+
+
 def test_every_preset_timestep_is_inside_the_measured_table():
     for name, summary in stability.preset_envelopes().items():
         assert summary["max_timestep_s"] >= summary["timestep_s"], name
