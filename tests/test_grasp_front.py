@@ -78,6 +78,10 @@ def test_a_variant_may_change_only_the_numerics():
     # The same value read back as text ("8.0" from a CSV) is the same setting.
     as_text = trials(15, 5).assign(**{"config.object.branch_count": "8.0"})
     grasp_front.front_table({"fine": fine, "coarse": as_text}, "fine")
+    # the stretch joint's armature changes no equilibrium: a numerical setting like the step
+    armature = "config.gripper.filament.stretch_armature_ratio"
+    grasp_front.front_table({"fine": fine.assign(**{armature: 0.0}),
+                             "modal": trials(15, 5).assign(**{armature: 0.405})}, "fine")
     with pytest.raises(ParameterError, match=r"'grippier'.*config\.contact\.friction.*\['3\.0'\] against \['2\.0'\]"):
         grasp_front.front_table({"fine": fine, "grippier": trials(15, 5, friction=3.0)}, "fine")
     with pytest.raises(ParameterError, match="fine run 'reference' is not among the variants"):

@@ -1,7 +1,7 @@
 """Numerical presets judged on grasp outcomes (issue 11, item 4): numerical variants of one gripper against a fine run.
 
 A variant is a set of trial rows of one condition (task, centering offset) that differ from the fine run's only
-in their numerics (`config.numerics.*` and the segment count, the fields a preset sets) and their seeds.
+in their numerics (`config.numerics.*`, the segment count and the stretch joint's armature) and their seeds.
 `front_table` gives per variant the success over its scored trials with the Wilson 95 % interval, the unstable
 count, the cost (median wall seconds per simulated second over its stable rows: it depends on what ran beside
 each trial, so compare variants run alike), the outcomes on the seeds both scored, and the verdict against the
@@ -33,8 +33,10 @@ from entangle_bench.metrics.pullout import intervals_overlap, pullout_table  # n
 from entangle_bench.metrics.stats import paired_exact_p  # noqa: E402
 from entangle_bench.results import SCORED, SUCCESS, UNSTABLE  # noqa: E402
 
-#: Config columns a variant may change: the numerics and the segment count (what `presets.apply_preset` sets).
-NUMERICAL_PREFIXES = ("config.numerics.", "config.gripper.filament.n_segments")
+#: Config columns a variant may change: the numerics and the segment count (what `presets.apply_preset` sets),
+#: and the stretch joint's armature (an inertia that changes no equilibrium, there for the step).
+NUMERICAL_PREFIXES = ("config.numerics.", "config.gripper.filament.n_segments",
+                      "config.gripper.filament.stretch_armature_ratio")
 #: Scored pull-outs per object before a toughness verdict is `agrees`.
 MIN_PULLS = 5
 #: Level of the paired test below which a variant `differs` from the fine run.
