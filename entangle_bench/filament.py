@@ -355,7 +355,7 @@ def add_filament(
             k = params.axial_stiffness_n_m
             body.add_joint(name=stretch_name(index), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=(1.0, 0.0, 0.0),
                            stiffness=k, damping=k * params.damping_time_s,
-                           armature=params.stretch_armature_ratio * params.linear_density_kg_m * params.length_m)
+                           armature=params.stretch_armature_ratio * params.mass_kg)
         if params.joints == "ball":
             stiffness = scale * params.bending_stiffness_nm2 / ds
             body.add_joint(

@@ -15,6 +15,7 @@ timestep they allow.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from entangle_bench.filament import MODAL_STRETCH_ARMATURE_RATIO, REFERENCE_PRESSURE_PA, FilamentParams
 from entangle_bench.gripper import GripperParams
@@ -131,16 +132,26 @@ ARMATURE_STRETCH_ENVELOPE: dict[str, dict[int, tuple[float, ...]]] = {
 }
 
 
-def envelope_of(filament: FilamentParams) -> tuple[dict[str, dict[int, tuple[float, ...]]], tuple[float, ...],
-                                                     tuple[float, ...]]:
-    """The measured table for `filament`, with its moduli (Pa) and timesteps (s): with a stretch joint at the
-    clamp ARMATURE_STRETCH_ENVELOPE if its armature is at least the modal one, else STRETCH_ENVELOPE
+class MeasuredMap(NamedTuple):
+    """A stored stability table with its axes and what it maps."""
+
+    table: dict[str, dict[int, tuple[float, ...]]]
+    moduli_pa: tuple[float, ...]
+    timesteps_s: tuple[float, ...]
+    name: str
+
+
+def envelope_of(filament: FilamentParams) -> MeasuredMap:
+    """The measured map for `filament`: with a stretch joint at the clamp ARMATURE_STRETCH_ENVELOPE if its
+    armature is at least the modal one (the map ran at 0.405, hence the 1e-3 tolerance), else STRETCH_ENVELOPE
     (measured without armature); without one ENVELOPE."""
     if filament.stretch_at_clamp:
         if filament.stretch_armature_ratio >= MODAL_STRETCH_ARMATURE_RATIO * (1 - 1e-3):
-            return ARMATURE_STRETCH_ENVELOPE, STRETCH_MAP_MODULI_PA, STRETCH_MAP_TIMESTEPS_S
-        return STRETCH_ENVELOPE, STRETCH_MAP_MODULI_PA, STRETCH_MAP_TIMESTEPS_S
-    return ENVELOPE, MAP_MODULI_PA, MAP_TIMESTEPS_S
+            return MeasuredMap(ARMATURE_STRETCH_ENVELOPE, STRETCH_MAP_MODULI_PA, STRETCH_MAP_TIMESTEPS_S,
+                               "stability map of the clamp's stretch joint with its modal armature")
+        return MeasuredMap(STRETCH_ENVELOPE, STRETCH_MAP_MODULI_PA, STRETCH_MAP_TIMESTEPS_S,
+                           "stability map of the clamp's stretch joint without armature")
+    return MeasuredMap(ENVELOPE, MAP_MODULI_PA, MAP_TIMESTEPS_S, "stability map")
 
 
 def base_numerics(integrator: str) -> Numerics:
@@ -281,10 +292,7 @@ def envelope_warnings(config: object) -> list[str]:
     )
     if not (math.isclose(n_eq, fil.n_segments) and math.isclose(e_eq, fil.youngs_modulus_pa)):
         where += " (reference-filament equivalent)"
-    table, moduli, timesteps = envelope_of(fil)
-    which = {id(STRETCH_ENVELOPE): "stability map of the clamp's stretch joint without armature",
-             id(ARMATURE_STRETCH_ENVELOPE): "stability map of the clamp's stretch joint with its modal armature",
-             }.get(id(table), "stability map")
+    table, moduli, timesteps, which = envelope_of(fil)
     dt_max = max_stable_timestep_s(num.integrator, n_eq, e_eq, table, moduli)
     if num.integrator not in table:
         out.append(
@@ -352,7 +360,7 @@ def stable_timestep_s(config: object) -> float | None:
     None when the configuration lies outside the rod map.
     """
     fil = config.gripper.filament
-    table, moduli, _ = envelope_of(fil)
+    table, moduli, _, _ = envelope_of(fil)
     rod = max_stable_timestep_s(
         config.numerics.integrator, equivalent_segments(fil), equivalent_modulus_pa(fil), table, moduli
     )

@@ -62,8 +62,8 @@ def test_armature_envelope_table_is_the_stored_map():
     config = resolve_config("eight_branch_tree", None, [*candidate_overrides(), "numerics.timestep_s=0.0005",
                                                        "gripper.filament.stretch_armature_ratio=0.405"])
     fil = config.gripper.filament
-    table, moduli, _ = stability.envelope_of(fil)
-    assert table is stability.ARMATURE_STRETCH_ENVELOPE
+    table, moduli, _, name = stability.envelope_of(fil)
+    assert table is stability.ARMATURE_STRETCH_ENVELOPE and "modal armature" in name
     assert stability.max_stable_timestep_s("euler", stability.equivalent_segments(fil),
                                            stability.equivalent_modulus_pa(fil), table, moduli) == 0.5e-3
     warnings = stability.envelope_warnings(config)

@@ -179,7 +179,7 @@ def test_largest_timestep_the_preset_allows(preset, resolve_case, run_trial_case
     """The envelope's largest timestep for the preset's own filament, in the contact-rich trial."""
     config = resolve_case(preset, [])
     largest = stability.stable_timestep_s(config)
-    if preset == "candidate" and largest < config.numerics.timestep_s:
+    if preset == CANDIDATE and largest < config.numerics.timestep_s:
         # the candidate's own step lies outside its stretch joint's map without armature, and says so
         assert any("stable envelope" in w for w in stability.envelope_warnings(config))
     else:
