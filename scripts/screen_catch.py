@@ -7,7 +7,7 @@ normal force on it, with the paired difference of each seed against the first va
 first prints how success follows those contacts in finished trials.
 
 Usage: python scripts/screen_catch.py [--task eight_branch_tree] [--preset balanced] [--set a.b=v ...]
-           [--variant NAME:a.b=v,c.d=w ...] [--seed 0] [--seeds 4] [--out screen.csv] [--rows trials.jsonl ...]
+           [--variant NAME:a.b=v,c.d=w ...] [--seed 0] [--seeds 4] [--out screen.csv] [--states DIR] [--rows trials.jsonl ...]
 """
 
 from __future__ import annotations
@@ -45,6 +45,8 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=4,
                         help="trials per variant, seeds --seed, --seed + 1, ... (0: only tabulate --rows)")
     parser.add_argument("--out", type=Path, help="write the rows as CSV")
+    parser.add_argument("--states", type=Path, help="save each snapshot as DIR/<variant>_seed<S>_actuated.npz "
+                        "(draw it with scripts/plot_entanglement.py)")
     parser.add_argument("--rows", type=Path, nargs="*", default=[], help="finished trial rows (jsonl) to tabulate")
     args = parser.parse_args()
     if args.seeds < 0:
@@ -62,7 +64,7 @@ def main() -> None:
     seeds = range(args.seed, args.seed + args.seeds)
     print(f"machine: {platform.machine()} mujoco {mujoco.__version__}; {task} preset {args.preset} seeds "
           f"{seeds.start}–{seeds.stop - 1} {' '.join(args.overrides)}")
-    rows = screen(task, args.preset, variants, seeds, args.overrides)
+    rows = screen(task, args.preset, variants, seeds, args.overrides, args.states)
     if args.out:
         atomic_write_text(args.out, rows.to_csv(index=False))
     stable = rows[rows["unstable"] == ""]

@@ -9,11 +9,15 @@ from entangle_bench.runner import simulate
 from entangle_bench.studies.catch import catch_at_lift, catch_outcome_table, screen
 
 
-def test_screen_state_is_the_trials_actuated_snapshot(short_spec):
+def test_screen_state_is_the_trials_actuated_snapshot(short_spec, tmp_path):
     spec = short_spec("eight_branch_tree")
-    whole = simulate(spec.task, spec.config, spec.seed).row
-    caught = catch_at_lift(spec.task, spec.config, spec.seed)
+    whole = simulate(spec.task, spec.config, spec.seed, state_dir=tmp_path / "run", state_id="t").row
+    caught = catch_at_lift(spec.task, spec.config, spec.seed, tmp_path / "screen" / "t_actuated.npz")
     assert caught["unstable"] == ""
+    with np.load(tmp_path / "run" / "t_actuated.npz") as ran, np.load(tmp_path / "screen" / "t_actuated.npz") as saved:
+        assert sorted(saved.files) == sorted(ran.files) and "curves" in saved.files
+        for name in ran.files:  # the saved arrays are the runner's snapshot, bit for bit
+            np.testing.assert_array_equal(saved[name], ran[name])
     actuated = {k: v for k, v in whole.items() if k.startswith("actuated.")}
     assert actuated and {k: caught[k] for k in actuated} == actuated  # bit for bit, every snapshot metric
     assert caught["sim_time_s"] < whole["sim_time_s"]

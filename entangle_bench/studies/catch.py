@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -20,6 +21,7 @@ import numpy as np
 import pandas as pd
 from dm_control.rl.control import PhysicsError
 
+from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.results import SCORED, SUCCESS
@@ -31,10 +33,11 @@ from entangle_bench.watchdog import Watchdog, WatchdogTripped
 SNAPSHOT = "actuated"
 
 
-def catch_at_lift(task: str, config: Any, seed: int) -> dict[str, Any]:
+def catch_at_lift(task: str, config: Any, seed: int, state_path: Path | None = None) -> dict[str, Any]:
     """One trial run to the start of its `actuated` snapshot's phase under the watchdog: the snapshot's metrics,
     `filaments_touching_object`, `object_normal_force_n` (N, filament–object normal forces summed), `unstable`
-    (the watchdog's reason, or ''), `sim_time_s` and `wall_s`."""
+    (the watchdog's reason, or ''), `sim_time_s` and `wall_s`. With `state_path`, the snapshot's arrays (the
+    runner's `states/<id>_actuated.npz`: centerlines, contacts, the object's parts) are saved there."""
     start = time.perf_counter()
     watch: list[Watchdog] = []
 
@@ -56,7 +59,10 @@ def catch_at_lift(task: str, config: Any, seed: int) -> dict[str, Any]:
     physics = env.physics
     if ended:
         raise RuntimeError(f"{task} seed {seed} ended before its {SNAPSHOT!r} snapshot")
-    row.update({f"{SNAPSHOT}.{k}": v for k, v in env.task.snapshot(physics).metrics.items()})
+    snap = env.task.snapshot(physics)
+    row.update({f"{SNAPSHOT}.{k}": v for k, v in snap.metrics.items()})
+    if state_path is not None:
+        atomic_save_npz(state_path, **snap.arrays)
     summary = contact_summary(physics.model.ptr, physics.data.ptr, physics.scene.geoms)
     on_object = summary.kinds == "filament-object"
     filament = physics.scene.geoms.filament[summary.geom_pairs[on_object]]
@@ -67,11 +73,16 @@ def catch_at_lift(task: str, config: Any, seed: int) -> dict[str, Any]:
 
 
 def screen(task: str, preset: str, variants: Mapping[str, Sequence[str]], seeds: Sequence[int],
-           overrides: Sequence[str] = ()) -> pd.DataFrame:
+           overrides: Sequence[str] = (), state_dir: Path | None = None) -> pd.DataFrame:
     """`catch_at_lift` for every variant (name -> `a.b=value` overrides on top of `overrides`) and seed; one row
-    each, with `variant`. Every configuration is resolved first, so a bad override fails before anything runs."""
+    each, with `variant`. Every configuration is resolved first, so a bad override fails before anything runs.
+    With `state_dir`, each snapshot goes to `<state_dir>/<variant>_seed<seed>_actuated.npz`."""
     configs = {name: resolve_config(task, preset, [*overrides, *extra]) for name, extra in variants.items()}
-    rows = [{"variant": name, **catch_at_lift(task, config, seed)}
+
+    def path(name: str, seed: int) -> Path | None:
+        return None if state_dir is None else Path(state_dir) / f"{name}_seed{seed}_{SNAPSHOT}.npz"
+
+    rows = [{"variant": name, **catch_at_lift(task, config, seed, path(name, seed))}
             for name, config in configs.items() for seed in seeds]
     return pd.DataFrame(rows)
 
