@@ -7,7 +7,8 @@ normal force on it, with the paired difference of each seed against the first va
 first prints how success follows those contacts in finished trials.
 
 Usage: python scripts/screen_catch.py [--task eight_branch_tree] [--preset balanced] [--set a.b=v ...]
-           [--variant NAME:a.b=v,c.d=w ...] [--seed 0] [--seeds 4] [--out screen.csv] [--states DIR] [--rows trials.jsonl ...]
+           [--variant NAME:a.b=v,c.d=w ...] [--seed 0] [--seeds 4] [--out screen.csv] [--states DIR]
+           [--rows trials.jsonl ...]
 """
 
 from __future__ import annotations
