@@ -25,6 +25,7 @@ from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.results import SCORED, SUCCESS
+from entangle_bench.runner import state_path
 from entangle_bench.studies.branching import run_until
 from entangle_bench.suite import resolve_config
 from entangle_bench.watchdog import Watchdog, WatchdogTripped
@@ -33,10 +34,10 @@ from entangle_bench.watchdog import Watchdog, WatchdogTripped
 SNAPSHOT = "actuated"
 
 
-def catch_at_lift(task: str, config: Any, seed: int, state_path: Path | None = None) -> dict[str, Any]:
+def catch_at_lift(task: str, config: Any, seed: int, save_to: Path | None = None) -> dict[str, Any]:
     """One trial run to the start of its `actuated` snapshot's phase under the watchdog: the snapshot's metrics,
     `filaments_touching_object`, `object_normal_force_n` (N, filament–object normal forces summed), `unstable`
-    (the watchdog's reason, or ''), `sim_time_s` and `wall_s`. With `state_path`, the snapshot's arrays (the
+    (the watchdog's reason, or ''), `sim_time_s` and `wall_s`. With `save_to`, the snapshot's arrays (the
     runner's `states/<id>_actuated.npz`: centerlines, contacts, the object's parts) are saved there."""
     start = time.perf_counter()
     watch: list[Watchdog] = []
@@ -61,8 +62,8 @@ def catch_at_lift(task: str, config: Any, seed: int, state_path: Path | None = N
         raise RuntimeError(f"{task} seed {seed} ended before its {SNAPSHOT!r} snapshot")
     snap = env.task.snapshot(physics)
     row.update({f"{SNAPSHOT}.{k}": v for k, v in snap.metrics.items()})
-    if state_path is not None:
-        atomic_save_npz(state_path, **snap.arrays)
+    if save_to is not None:
+        atomic_save_npz(save_to, **snap.arrays)
     summary = contact_summary(physics.model.ptr, physics.data.ptr, physics.scene.geoms)
     on_object = summary.kinds == "filament-object"
     filament = physics.scene.geoms.filament[summary.geom_pairs[on_object]]
@@ -78,11 +79,8 @@ def screen(task: str, preset: str, variants: Mapping[str, Sequence[str]], seeds:
     each, with `variant`. Every configuration is resolved first, so a bad override fails before anything runs.
     With `state_dir`, each snapshot goes to `<state_dir>/<variant>_seed<seed>_actuated.npz`."""
     configs = {name: resolve_config(task, preset, [*overrides, *extra]) for name, extra in variants.items()}
-
-    def path(name: str, seed: int) -> Path | None:
-        return None if state_dir is None else Path(state_dir) / f"{name}_seed{seed}_{SNAPSHOT}.npz"
-
-    rows = [{"variant": name, **catch_at_lift(task, config, seed, path(name, seed))}
+    rows = [{"variant": name, **catch_at_lift(task, config, seed, None if state_dir is None
+                                              else state_path(state_dir, f"{name}_seed{seed}", SNAPSHOT))}
             for name, config in configs.items() for seed in seeds]
     return pd.DataFrame(rows)
 
