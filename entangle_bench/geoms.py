@@ -1,11 +1,12 @@
 """Geom classification: the one place that says which geom is a filament, the object or the ground.
 
 Scenes name their geoms by convention: filament i's capsules `f{i:02d}_g{j:03d}` (`filament.geom_name`), the
-object's geoms `object_*`, the ground plane `ground`; anything else (the hub disk) is `other`. A pair of geoms
-is of one contact kind (`KINDS`, the names used in result columns such as `held.contacts.filament-object`):
-filament-object, filament-filament (two different filaments), filament-self (two geoms of one filament),
-filament-ground, object-ground, and other. Collision pairs (`effects.pair_kinds`), active contacts
-(`metrics.contacts`) and observations all classify through `GeomClasses`.
+object's geoms `object_*`, the ground plane `ground` and the post an object may stand on `ground_post` (both
+ground); anything else (the hub disk) is `other`. A pair of geoms is of one contact kind (`KINDS`, the names used
+in result columns such as `held.contacts.filament-object`): filament-object, filament-filament (two different
+filaments), filament-self (two geoms of one filament), filament-ground, object-ground, and other. Collision
+pairs (`effects.pair_kinds`), active contacts (`metrics.contacts`) and observations all classify through
+`GeomClasses`.
 """
 
 from __future__ import annotations
@@ -20,6 +21,9 @@ import numpy as np
 from entangle_bench.errors import ParameterError
 
 ROLES = ("filament", "object", "ground", "other")
+
+#: Name of the post an object may stand on (`scene.SceneConfig.post_height_m`), a ground geom.
+POST = "ground_post"
 
 KINDS = (
     "filament-object",
@@ -40,7 +44,7 @@ def role_of(name: str) -> tuple[str, int]:
         return "filament", int(match.group(1))
     if name.startswith("object_"):
         return "object", -1
-    if name == "ground":
+    if name in ("ground", POST):
         return "ground", -1
     return "other", -1
 
@@ -54,7 +58,7 @@ class GeomClasses:
     is_object: np.ndarray
     """(ngeom,) bool, True for the object's geoms."""
     is_ground: np.ndarray
-    """(ngeom,) bool, True for the ground plane."""
+    """(ngeom,) bool, True for the ground plane and the post an object may stand on."""
 
     def __post_init__(self) -> None:
         filament = np.asarray(self.filament)

@@ -11,7 +11,7 @@ import numpy as np
 from entangle_bench import effects as fx
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
-from entangle_bench.geoms import GeomClasses, role_of
+from entangle_bench.geoms import POST, GeomClasses, role_of
 from entangle_bench.gripper import Gripper, GripperParams, add_gripper, filament_positions
 from entangle_bench.presets import Numerics
 
@@ -62,12 +62,21 @@ class SceneConfig:
     numerics: Numerics = field(default_factory=Numerics)
     object_weld: Literal["none", "world", "hub"] = "none"
     """A weld equality (OBJECT_WELD, inactive until switched on) holding the object to the world or the hub."""
+    post_height_m: float = 0.0
+    """Height of a fixed vertical post (a geom of the ground, `POST`) whose top the object is placed on, m; 0: no
+    post, the object stands on the ground."""
+    post_radius_m: float = 0.005
+    """Radius of that post, m."""
 
     def __post_init__(self) -> None:
         check_choice("object_weld", self.object_weld, ("none", "world", "hub"))
+        check_range("post_height_m", self.post_height_m, 0.0, 1.0)
+        check_range("post_radius_m", self.post_radius_m, 0.0, 0.1, low_open=True)
         self.numerics.check_joints(self.gripper.filament.joints)
         if self.object_weld != "none" and self.object_name is None:
             raise ParameterError(f"object_weld = {self.object_weld!r} needs an object; the scene has none")
+        if self.post_height_m > 0 and self.object_name is None:
+            raise ParameterError(f"post_height_m = {self.post_height_m} needs an object to hold; the scene has none")
 
 
 #: Name of the equality that welds the object to its holder (`SceneConfig.object_weld`).
@@ -99,10 +108,13 @@ class Scene:
 def build_scene(
     config: SceneConfig,
     hub_pos: tuple[float, float, float] = (0.0, 0.0, 0.5),
-    object_pos: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    object_pos: tuple[float, float, float] | None = None,
     object_quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0),
 ) -> Scene:
-    """Assemble and compile the scene; invalid parameters raise before anything is compiled."""
+    """Assemble and compile the scene; invalid parameters raise before anything is compiled.
+
+    `object_pos` is the object's base point (m): on the ground by default, on the post's top with one.
+    """
     contact = config.contact
     check_range(
         "contact.timeconst_s (relative to 2 * numerics.timestep_s)",
@@ -117,6 +129,12 @@ def build_scene(
     spec.worldbody.add_geom(
         name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(1.0, 1.0, 0.01), rgba=(0.8, 0.8, 0.8, 1)
     )
+    post = config.post_height_m
+    if post > 0:
+        spec.worldbody.add_geom(
+            name=POST, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=(config.post_radius_m, post / 2, 0.0),
+            pos=(0.0, 0.0, post / 2), rgba=(0.5, 0.5, 0.5, 1),
+        )
     gripper = add_gripper(
         spec, config.gripper, hub_pos, twist_armature_scale=config.numerics.twist_armature_scale,
         bending_armature=config.numerics.bending_armature,
@@ -126,7 +144,8 @@ def build_scene(
         from entangle_bench import objects
 
         info = objects.add_object(
-            spec, config.object_name, config.object_params, pos=object_pos, quat=object_quat
+            spec, config.object_name, config.object_params, pos=(0.0, 0.0, post) if object_pos is None else object_pos,
+            quat=object_quat,
         )
     if config.object_weld != "none":
         # Inactive at first; the task sets its relative pose and switches it on (`ScenePhysics.clamp_object`).

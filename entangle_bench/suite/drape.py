@@ -99,11 +99,11 @@ class DrapeSchedule:
     AFTER_SETTLE: ClassVar[tuple[str, ...]] = ()
 
     @classmethod
-    def from_config(cls, config: DrapeConfig, object_height_m: float) -> Self:
-        """Phase times for an object of the given height (m)."""
+    def from_config(cls, config: DrapeConfig, object_top_m: float) -> Self:
+        """Phase times for an object whose top is `object_top_m` above the ground (m)."""
         ph, length = config.phases, config.gripper.filament.length_m
-        start = object_height_m + length + ph.start_clearance_m
-        drape = object_height_m + length - ph.drape_depth_m
+        start = object_top_m + length + ph.start_clearance_m
+        drape = object_top_m + length - ph.drape_depth_m
         t_actuate = (start - drape) / ph.approach_speed_m_s
         t_settle = t_actuate + ph.ramp_time_s
         t_settled = t_settle + ph.settle_time_s
@@ -132,22 +132,22 @@ DC = TypeVar("DC", bound=DrapeConfig)
 class DrapeTask(GripperTask[DC]):
     """A gripper task that drapes the filaments over the object, actuates and settles before its own sequence."""
 
-    #: The family's schedule (phase times from the config and the object's height); PHASES follow from it.
+    #: The family's schedule (phase times from the config and the height of the object's top); PHASES follow.
     SCHEDULE: ClassVar[type[DrapeSchedule]] = DrapeSchedule
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         cls.PHASES = (*DRAPE_PHASES, *cls.SCHEDULE.AFTER_SETTLE, "done")
 
-    def __init__(self, config: DC, object_height_m: float, seed: int):
+    def __init__(self, config: DC, object_top_m: float, seed: int):
         super().__init__(config, seed)
-        self.schedule = self.SCHEDULE.from_config(config, object_height_m)
+        self.schedule = self.SCHEDULE.from_config(config, object_top_m)
 
     @classmethod
     def make_environment(cls, config: DC, seed: int) -> control.Environment:
         """The dm-control environment of one trial, its time limit the end of the schedule's last phase."""
         scene = build_scene(config.scene_config(), hub_pos=(0.0, 0.0, 1.0))
-        task = cls(config, scene.object_info.height_m, seed)
+        task = cls(config, scene.config.post_height_m + scene.object_info.height_m, seed)
         return control.Environment(
             ScenePhysics.from_scene(scene),
             task,

@@ -3,9 +3,10 @@
 Sequence (the pull-out test of Becker et al., PNAS 2022): approach, actuate and settle exactly as a top-drape
 trial (`suite.drape`, same `phases.*` settings); clamp: the object is welded where it is to the world (the
 testing machine's frame) and taken off the ground contact while the hub rests, so the weld takes over its
-weight; pull: the hub moves along the pull direction, reaching `pull.speed_m_s` at constant acceleration within
-`pull.accel_time_s`, until the object is free (pull force below `release_force_n` over `release_distance_m` of
-travel, once it carried that force or while no filament touches it) or the hub has travelled `max_travel_m`.
+weight (an object held on a post, `pull.post_height_m`, is welded from the start); pull: the hub moves along
+the pull direction, reaching `pull.speed_m_s` at constant acceleration within `pull.accel_time_s`, until the
+object is free (pull force below `release_force_n` over `release_distance_m` of travel, once it carried that
+force or while no filament touches it) or the hub has travelled `max_travel_m`.
 
 The instrument reads the pull force two ways: from the weld's constraint rows, F = -(F_weld + m g) (the force the
 gripper exerts on the object, its weight tared), and independently from the sum of the filament-object contact
@@ -72,6 +73,12 @@ class PullParams:
     anchor: Literal["world", "hub"] = "world"
     """What the weld holds the object to: the world (the test) or the hub (an instrument check: the weld then
     carries the object's weight and inertia, m (g + a))."""
+    post_height_m: float = 0.0
+    """Height of the post the object is held on, m (0: it stands on the ground and is welded at the clamp). On a
+    post, as on a testing machine's fixture, it is welded from the start and the filaments hanging below it meet
+    no ground there: no filament can be squeezed between it and the ground (`ground_pinch_toughness_j`)."""
+    post_radius_m: float = 0.005
+    """Radius of that post, m."""
 
     def __post_init__(self) -> None:
         check_range("pull.speed_m_s", self.speed_m_s, 0.0, MAX_HUB_SPEED_M_S, low_open=True)
@@ -90,6 +97,13 @@ class PullParams:
         check_range("pull.release_distance_m", self.release_distance_m, 0.0, 1.0, low_open=True)
         check_range("pull.engage_weight_fraction", self.engage_weight_fraction, 0.0, 100.0)
         check_choice("pull.anchor", self.anchor, ("world", "hub"))
+        check_range("pull.post_height_m", self.post_height_m, 0.0, 1.0)
+        check_range("pull.post_radius_m", self.post_radius_m, 0.0, 0.1, low_open=True)
+        if self.post_height_m > 0 and self.anchor != "world":
+            raise ParameterError(
+                f"pull.post_height_m = {self.post_height_m} holds the object on a fixed post: it needs "
+                f"pull.anchor = 'world', not {self.anchor!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -109,8 +123,12 @@ class PullOutConfig(DrapeConfig):
         )
 
     def scene_config(self) -> SceneConfig:
-        """The scene: gripper, object, ground and the (inactive) weld holding the object to `pull.anchor`."""
-        return dataclasses.replace(super().scene_config(), object_weld=self.pull.anchor)
+        """The scene: gripper, object, ground, the post if any and the (inactive) weld holding the object to
+        `pull.anchor`."""
+        return dataclasses.replace(
+            super().scene_config(), object_weld=self.pull.anchor, post_height_m=self.pull.post_height_m,
+            post_radius_m=self.pull.post_radius_m,
+        )
 
 
 @dataclass(frozen=True)
@@ -166,11 +184,15 @@ class PullOut(DrapeTask[PullOutConfig]):
     _track: _PullTracking
 
     def initialize_episode(self, physics: ScenePhysics) -> None:
-        """Release a weld left from a previous episode, set up the drape (`DrapeTask`), start a new record."""
+        """Release a weld left from a previous episode, set up the drape (`DrapeTask`), start a new record; an
+        object on a post is welded at once."""
         physics.unclamp_object()
         super().initialize_episode(physics)
         pull = self.config.pull
         self._track = _PullTracking(ReleaseDetector(pull.release_force_n, pull.release_distance_m))
+        if pull.post_height_m > 0:
+            physics.clamp_object()
+            self._track.clamped = True
 
     def phase(self, physics: ScenePhysics) -> str:
         """Phase the next control step runs in; 'done' once the outcome is decided."""

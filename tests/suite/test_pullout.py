@@ -19,6 +19,7 @@ from entangle_bench import objects, runner
 from entangle_bench.cli import main
 from entangle_bench.errors import FileFormatError, ParameterError, UnknownNameError
 from entangle_bench.filament import FilamentParams, pressure_law
+from entangle_bench.geoms import POST
 from entangle_bench.gripper import GripperParams
 from entangle_bench.metrics.pullout import pullout_table
 from entangle_bench.objects.primitives import RodParams
@@ -88,11 +89,18 @@ def test_every_object_has_a_pullout_task_under_both_names():
         ("pull.direction=0,0,0", r"pull.direction = \(0.0, 0.0, 0.0\) has zero length"),
         ("pull.clamp_time_s=0.01", r"pull.clamp_time_s \(relative to 10 \* numerics.timestep_s\) = 0.01 is outside"),
         ("object_name=teapot", r"object_name = 'teapot' is not allowed; choose one of \[.*'sphere'"),
+        ("pull.post_height_m=-0.1", r"pull.post_height_m = -0.1 is outside the allowed range \[0, 1\]"),
+        ("pull.post_radius_m=0", r"pull.post_radius_m = 0.0 is outside the allowed range \(0, 0.1\]"),
     ],
 )
 def test_bad_input_names_the_value_and_the_allowed_range(override, message):
     with pytest.raises(ParameterError, match=message):
         resolve_config("pullout/sphere", None, [override])
+
+
+def test_a_post_needs_the_world_anchor():
+    with pytest.raises(ParameterError, match=r"pull.post_height_m = 0.2 .* needs pull.anchor = 'world', not 'hub'"):
+        resolve_config("pullout/sphere", None, ["pull.post_height_m=0.2", "pull.anchor=hub"])
 
 
 def test_cli_rejects_bad_input_before_anything_simulates(tmp_path, monkeypatch, capsys):
@@ -294,6 +302,50 @@ def test_zero_pressure_gives_no_toughness():
     assert abs(row["toughness_j"]) <= (1 + mu) * weight * row["travel_m"]
     # weld and contact sum agree up to the object ringing on its weld after filament impacts (m a: measured 0.15 W_f)
     assert row["force_method_gap_n"] < 0.3 * weight
+
+
+class ObjectTrack:
+    """Test observer: the object's position after reset and after every control step, m."""
+
+    def __init__(self):
+        self.positions: list[np.ndarray] = []
+
+    def start(self, env) -> None:
+        self.step(env)
+
+    def step(self, env) -> None:
+        self.positions.append(env.physics.object_pose()[0].copy())
+
+    def finish(self, row, complete: bool) -> None:
+        """Nothing to close."""
+
+
+def test_object_on_a_post_is_welded_from_the_start_and_its_weight_read_at_the_pull():
+    """The sphere on a 0.15 m post: placed with its lowest point on the post's top, the drape measured from its
+    top, welded before the first step, so actuated filaments landing on it move it by no more than the weld's
+    static sag g (2 dt)^2 (0.16 mm at 2 ms); the post is ground (its contacts with the object are off), and at
+    the pull's start the weld reads what the filament contacts press on the object (two methods: within 0.1 mN of
+    the 0.8 mN the filaments press down with; measured 0.04 mN)."""
+    post = 0.15
+    config = three_filaments_over_sphere(172e3)
+    config = dataclasses.replace(config, pull=dataclasses.replace(config.pull, post_height_m=post))
+    env = TASKS.get("pullout/sphere").make_environment(config, 0)
+    env.reset()
+    physics = env.physics
+    assert physics.object_lowest_z() == pytest.approx(post, abs=1e-9)
+    assert physics.scene.geoms.is_ground[physics.model.ptr.geom(POST).id]
+    top = post + objects.object_info("sphere").height_m
+    assert env.task.schedule.hub_drape_z == pytest.approx(top + 0.1 - 0.05)
+    assert physics.data.ptr.eq_active[physics.scene.object_weld] == 1
+    track = ObjectTrack()
+    result = simulate("pullout/sphere", config, 0, observers=[track])
+    assert result.stable, result.reason
+    moved = np.linalg.norm(np.array(track.positions) - track.positions[0], axis=1)
+    assert moved.max() < 9.81 * (2 * 2e-3) ** 2 * 1.1
+    assert np.all(result.series["contacts.object-ground"] == 0)
+    first = {key: values[0] for key, values in result.series.items()}
+    assert first["contact_pull_force_n"] < -5e-4
+    assert first["pull_force_n"] == pytest.approx(first["contact_pull_force_n"], abs=1e-4)
 
 
 def test_unstable_pull_is_unstable_and_never_scored(nan_at):
