@@ -51,7 +51,7 @@ from entangle_bench.atomic import AtomicFile
 from entangle_bench.config import check_range
 from entangle_bench.errors import FileFormatError
 from entangle_bench.metrics.contacts import KINDS
-from entangle_bench.viz import OBJECT_COLOR, Part, in_frame, object_geometry
+from entangle_bench.viz import OBJECT_COLOR, Part, in_frame, object_geometry, post_geometry
 
 STATIC, FILAMENTS, TF, METRICS = "/scene/static", "/scene/filaments", "/tf", "/trial/metrics"
 METRICS_SCHEMA = {
@@ -153,7 +153,8 @@ class TrialRecorder:
         self._writer.add_message(channel, time_ns, data, time_ns, self.samples)
 
     def _write_static(self, physics: Any, time_ns: int) -> None:
-        """The object's parts in its body frame (if the scene has an object) and the ground, once."""
+        """The object's parts in its body frame (if the scene has an object) and the ground (with the post the
+        object may stand on), once."""
         model, data, scene = physics.model.ptr, physics.data.ptr, physics.scene
         entities = []
         body = scene.object_body
@@ -168,6 +169,8 @@ class TrialRecorder:
         ground.cubes.add(pose=_pose(np.array([0.0, 0.0, -0.0005]), np.eye(3)),
                          size=Vector3(x=2 * GROUND_HALF_SIZE_M, y=2 * GROUND_HALF_SIZE_M, z=0.001),
                          color=_color((0.8, 0.8, 0.8), 0.6))
+        for part in post_geometry(model, data, scene.geoms.is_ground):
+            _add_part(ground, part)
         entities.append(ground)
         self._write(STATIC, time_ns, SceneUpdate(entities=entities))
 

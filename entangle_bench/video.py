@@ -27,7 +27,7 @@ from entangle_bench.atomic import AtomicFile
 from entangle_bench.config import check_choice, check_range
 from entangle_bench.errors import ParameterError
 from entangle_bench.metrics.contacts import contact_summary
-from entangle_bench.viz import draw_scene, object_geometry
+from entangle_bench.viz import draw_scene, object_geometry, post_geometry
 
 BACKENDS = ("auto", "mujoco", "matplotlib")
 GL_BACKENDS = ("egl", "osmesa")
@@ -78,8 +78,8 @@ class _MatplotlibFrames:
         for artist in [*ax.lines, *ax.collections]:  # keep the axes: rebuilding ticks is half a frame's cost
             artist.remove()
         contacts = contact_summary(model, data, scene.geoms)
-        draw_scene(ax, physics.centerlines(), object_geometry(model, data, scene.geoms.is_object),
-                   (contacts.points, contacts.kinds))
+        parts = object_geometry(model, data, scene.geoms.is_object) + post_geometry(model, data, scene.geoms.is_ground)
+        draw_scene(ax, physics.centerlines(), parts, (contacts.points, contacts.kinds))
         ax.set_title(_caption(env), fontsize=9, family="monospace")
         self.figure.canvas.draw()
         return np.asarray(self.figure.canvas.buffer_rgba())[..., :3].copy()

@@ -69,6 +69,11 @@ def object_geometry(model: mujoco.MjModel, data: mujoco.MjData, is_object_geom: 
     return parts
 
 
+def post_geometry(model: mujoco.MjModel, data: mujoco.MjData, is_ground_geom: np.ndarray) -> list[Part]:
+    """The post an object may stand on (the ground's geoms but the plane) as Parts in world coordinates (m)."""
+    return object_geometry(model, data, is_ground_geom & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE))
+
+
 def in_frame(parts: Sequence[Part], position_m: np.ndarray, rotation: np.ndarray) -> list[Part]:
     """Parts re-expressed in the frame with origin `position_m` and axes `rotation` (columns), e.g. a body's."""
     r = np.asarray(rotation, float)

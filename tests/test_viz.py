@@ -9,8 +9,9 @@ import pytest
 
 from entangle_bench.atomic import atomic_save_npz
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
+from entangle_bench.suite.pullout import PullOut
 from entangle_bench.suite.top_drape import TopDrape
-from entangle_bench.viz import in_frame, object_geometry, pack, surface, unpack
+from entangle_bench.viz import in_frame, object_geometry, pack, post_geometry, surface, unpack
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,6 +46,25 @@ def test_every_object_geom_becomes_a_part_whose_surface_lies_in_the_geom(task):
                 assert np.hypot(*local[:2]) <= r + 1e-9 and abs(local[2]) <= h + 1e-9
             elif part.kind == "box":
                 assert np.all(np.abs(local) <= model.geom_size[g] + 1e-9)
+
+
+def test_the_post_is_drawn_as_a_cylinder_from_the_ground_to_the_object():
+    """A pull-out on a 0.2 m post of 5 mm radius: one cylinder part spanning z = 0 to 0.2 m under the object; none
+    without a post, and never the ground plane."""
+    for height in (0.0, 0.2):
+        config = resolve_config("pullout/cube", "fast", [f"pull.post_height_m={height}"])
+        env = PullOut.make_environment(config, 0)
+        env.reset()
+        physics = env.physics
+        parts = post_geometry(physics.model.ptr, physics.data.ptr, physics.scene.geoms.is_ground)
+        if height == 0.0:
+            assert parts == []
+            continue
+        (post,) = parts
+        assert post.kind == "cylinder" and np.allclose(post.size[:2], [0.005, 0.1])
+        z = surface(post)[0][:, 2]
+        assert z.min() == pytest.approx(0.0, abs=1e-9) and z.max() == pytest.approx(height)
+        assert physics.object_lowest_z() == pytest.approx(height)
 
 
 def test_parts_survive_an_npz_and_a_change_of_frame(tmp_path):

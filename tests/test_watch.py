@@ -20,6 +20,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from entangle_bench.errors import ParameterError
 from entangle_bench.recording import TrialRecorder, read_recording
 from entangle_bench.suite import SHORT_SEQUENCE, resolve_config
+from entangle_bench.suite.pullout import PullOut
 from entangle_bench.suite.top_drape import TopDrape
 from entangle_bench.video import TrialVideo
 
@@ -123,6 +124,18 @@ def test_static_scene_holds_the_object_parts_and_the_ground(watched):
     assert tree.frame_id == "object" and entities["ground"].frame_id == "world"
     # the reference tree: trunk and base disc are cylinders, 8 branches are capsules (cylinder + 2 spheres)
     assert (len(tree.cylinders), len(tree.spheres)) == (10, 16)
+    assert len(entities["ground"].cylinders) == 0  # no post
+
+
+def test_static_scene_draws_the_post_an_object_stands_on(tmp_path):
+    env = PullOut.make_environment(resolve_config("pullout/cube", "fast", ["pull.post_height_m=0.2"]), 0)
+    env.reset()
+    recorder = TrialRecorder(tmp_path / "post.mcap")
+    recorder.start(env)
+    recorder.finish({}, complete=True)
+    (static,) = [d for _, c, _, d in _messages(recorder.path) if c.topic == "/scene/static"]
+    (post,) = {e.id: e for e in static.entities}["ground"].cylinders
+    assert (post.pose.position.z, post.size.x, post.size.z) == pytest.approx((0.1, 0.01, 0.2))
 
 
 def test_metrics_and_metadata_are_readable(watched):
