@@ -23,11 +23,8 @@ import pandas as pd
 from entangle_bench.atomic import atomic_write_text
 from entangle_bench.errors import ParameterError
 from entangle_bench.results import markdown
-from entangle_bench.studies.catch import SNAPSHOT, catch_outcome_table, screen
+from entangle_bench.studies.catch import catch_outcome_table, screen, screen_table
 from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
-
-CONTACTS = f"{SNAPSHOT}.contacts.filament-object"
-SELF = f"{SNAPSHOT}.contacts.filament-self"  # a coil lying on itself is not around the object
 
 
 def _variant(text: str) -> tuple[str, list[str]]:
@@ -68,19 +65,15 @@ def main() -> None:
     rows = screen(task, args.preset, variants, seeds, args.overrides, args.states)
     if args.out:
         atomic_write_text(args.out, rows.to_csv(index=False))
-    stable = rows[rows["unstable"] == ""]
-    base = stable[stable["variant"] == next(iter(variants))].set_index("seed")[CONTACTS]
     print("| variant | stable / run | filament–object contacts | filament self-contacts | filaments touching "
           "| normal force on the object (N) | paired difference in contacts | wall per trial (s) |")
     print("|---|---|---|---|---|---|---|---|")
-    for name in variants:
-        mine, ran = stable[stable["variant"] == name], rows[rows["variant"] == name]
-        diff = (mine.set_index("seed")[CONTACTS] - base).dropna()
-        print(f"| {name} | {len(mine)} / {len(ran)} | {mine[CONTACTS].mean():.1f} ± {mine[CONTACTS].std():.1f} | "
-              f"{mine[SELF].mean():.0f} | {mine['filaments_touching_object'].mean():.1f} | "
-              f"{mine['object_normal_force_n'].mean():.3f} | "
-              f"{diff.mean():+.1f} ({len(diff)} seeds) | {ran['wall_s'].mean():.0f} |")
-
+    for line in screen_table(rows).itertuples():
+        print(f"| {line.variant} | {line.stable} / {line.run} | {line.contacts_mean:.1f} ± {line.contacts_std:.1f} | "
+              f"{line.self_contacts_mean:.0f} | {line.filaments_touching_mean:.1f} | {line.normal_force_mean_n:.3f} | "
+              f"{line.paired_contacts_diff:+.1f} ({line.paired_seeds} seeds) | {line.wall_mean_s:.0f} |")
+    for line in rows[rows["unstable"] != ""].itertuples():
+        print(f"unstable: {line.variant} seed {line.seed}: {line.unstable}")
 
 if __name__ == "__main__":
     main()

@@ -6,7 +6,7 @@ import pytest
 
 from entangle_bench.errors import ParameterError
 from entangle_bench.runner import simulate
-from entangle_bench.studies.catch import catch_at_lift, catch_outcome_table, screen
+from entangle_bench.studies.catch import catch_at_lift, catch_outcome_table, screen, screen_table
 
 
 def test_screen_state_is_the_trials_actuated_snapshot(short_spec, tmp_path):
@@ -43,3 +43,24 @@ def test_catch_outcome_table_bins_scored_trials():
     assert table["successes"].tolist() == [1, 0, 2]
     assert table["rate"].tolist() == [0.5, 0.0, 1.0]
     assert np.all(table["ci95_low"] <= table["rate"]) and np.all(table["rate"] <= table["ci95_high"])
+
+
+def test_screen_table_pairs_seeds_and_survives_a_variant_that_never_stays_stable():
+    ok = {"actuated.contacts.filament-object": 0, "actuated.contacts.filament-self": 0,
+          "filaments_touching_object": 0, "object_normal_force_n": 0.0}
+    rows = pd.DataFrame([
+        {"variant": "base", "seed": 0, "unstable": "", "wall_s": 10.0, **ok, "actuated.contacts.filament-object": 40},
+        {"variant": "base", "seed": 1, "unstable": "", "wall_s": 20.0, **ok, "actuated.contacts.filament-object": 60},
+        {"variant": "wide", "seed": 0, "unstable": "", "wall_s": 30.0, **ok, "actuated.contacts.filament-object": 50},
+        {"variant": "wide", "seed": 1, "unstable": "speed 30 m/s", "wall_s": 5.0},
+        {"variant": "soft", "seed": 0, "unstable": "invalid state", "wall_s": 4.0},
+    ])
+    table = screen_table(rows).set_index("variant")
+    assert table.index.tolist() == ["base", "wide", "soft"]  # the baseline first, in the order run
+    assert table.loc["base", "contacts_mean"] == 50 and table.loc["base", "paired_contacts_diff"] == 0
+    assert (table.loc["wide", "stable"], table.loc["wide", "run"]) == (1, 2)
+    assert table.loc["wide", "paired_contacts_diff"] == 10 and table.loc["wide", "paired_seeds"] == 1  # seed 0 only
+    assert table.loc["wide", "wall_mean_s"] == 17.5  # unstable runs cost time too
+    assert table.loc["soft", "stable"] == 0 and np.isnan(table.loc["soft", "contacts_mean"])
+    only_unstable = screen_table(rows[rows["variant"] == "soft"])  # the case that raised KeyError before
+    assert only_unstable["stable"].tolist() == [0] and only_unstable["paired_seeds"].tolist() == [0]

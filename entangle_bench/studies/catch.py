@@ -85,6 +85,31 @@ def screen(task: str, preset: str, variants: Mapping[str, Sequence[str]], seeds:
     return pd.DataFrame(rows)
 
 
+def screen_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """One line per variant of `screen`'s rows (the first variant is the baseline): stable and run trials, means of
+    the filament–object contacts (± standard deviation), self-contacts, filaments touching and their normal force
+    on the object (N), the mean paired difference in contacts against the baseline on the seeds both kept stable,
+    and the mean wall per trial (s). A variant whose every trial went unstable gets NaN means, not an error."""
+    contacts, self_contacts = f"{SNAPSHOT}.contacts.filament-object", f"{SNAPSHOT}.contacts.filament-self"
+    metrics = [contacts, self_contacts, "filaments_touching_object", "object_normal_force_n"]
+    rows = rows.reindex(columns=[*rows.columns, *(m for m in metrics if m not in rows.columns)])
+    stable = rows[rows["unstable"] == ""]
+    variants = list(dict.fromkeys(rows["variant"]))
+    base = stable[stable["variant"] == variants[0]].set_index("seed")[contacts]
+    out = []
+    for name in variants:
+        mine, ran = stable[stable["variant"] == name], rows[rows["variant"] == name]
+        diff = (mine.set_index("seed")[contacts] - base).dropna()
+        out.append({"variant": name, "stable": len(mine), "run": len(ran),
+                    "contacts_mean": mine[contacts].mean(), "contacts_std": mine[contacts].std(),
+                    "self_contacts_mean": mine[self_contacts].mean(),
+                    "filaments_touching_mean": mine["filaments_touching_object"].mean(),
+                    "normal_force_mean_n": mine["object_normal_force_n"].mean(),
+                    "paired_contacts_diff": diff.mean(), "paired_seeds": len(diff),
+                    "wall_mean_s": ran["wall_s"].mean()})
+    return pd.DataFrame(out)
+
+
 def catch_outcome_table(rows: pd.DataFrame, edges: Sequence[int] = (0, 22, 30, 40)) -> pd.DataFrame:
     """Success of scored trials (`outcome` success or failure) by their filament–object contacts at the start of
     the lift, binned at `edges` (each bin [edge, next edge), the last one open): trials, successes, rate and
