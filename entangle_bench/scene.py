@@ -66,17 +66,20 @@ class SceneConfig:
     """Height of a fixed vertical post (a geom of the ground, `POST`) whose top the object is placed on, m; 0: no
     post, the object stands on the ground."""
     post_radius_m: float = 0.005
-    """Radius of that post, m."""
+    """Radius of that post, m; 0: no post geom, the object is placed at that height with nothing under it."""
 
     def __post_init__(self) -> None:
         check_choice("object_weld", self.object_weld, ("none", "world", "hub"))
         check_range("post_height_m", self.post_height_m, 0.0, 1.0)
-        check_range("post_radius_m", self.post_radius_m, 0.0, 0.1, low_open=True)
+        check_range("post_radius_m", self.post_radius_m, 0.0, 0.1)
         self.numerics.check_joints(self.gripper.filament.joints)
         if self.object_weld != "none" and self.object_name is None:
             raise ParameterError(f"object_weld = {self.object_weld!r} needs an object; the scene has none")
         if self.post_height_m > 0 and self.object_name is None:
             raise ParameterError(f"post_height_m = {self.post_height_m} needs an object to hold; the scene has none")
+        if self.post_height_m > 0 and self.post_radius_m == 0 and self.object_weld == "none":
+            raise ParameterError(f"post_height_m = {self.post_height_m} with post_radius_m = 0 leaves the object in "
+                                 "mid-air: it needs object_weld 'world' to hold it")
 
 
 #: Name of the equality that welds the object to its holder (`SceneConfig.object_weld`).
@@ -130,7 +133,7 @@ def build_scene(
         name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(1.0, 1.0, 0.01), rgba=(0.8, 0.8, 0.8, 1)
     )
     post = config.post_height_m
-    if post > 0:
+    if post > 0 and config.post_radius_m > 0:
         spec.worldbody.add_geom(
             name=POST, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=(config.post_radius_m, post / 2, 0.0),
             pos=(0.0, 0.0, post / 2), rgba=(0.5, 0.5, 0.5, 1),

@@ -78,7 +78,8 @@ class PullParams:
     post, as on a testing machine's fixture, it is welded from the start and the filaments hanging below it meet
     no ground there: no filament can be squeezed between it and the ground (`ground_pinch_toughness_j`)."""
     post_radius_m: float = 0.005
-    """Radius of that post, m."""
+    """Radius of that post, m; 0: no post geom, the object is held at that height by the weld alone (nothing under
+    it that a filament could loop around or be squeezed against)."""
 
     def __post_init__(self) -> None:
         check_range("pull.speed_m_s", self.speed_m_s, 0.0, MAX_HUB_SPEED_M_S, low_open=True)
@@ -98,7 +99,7 @@ class PullParams:
         check_range("pull.engage_weight_fraction", self.engage_weight_fraction, 0.0, 100.0)
         check_choice("pull.anchor", self.anchor, ("world", "hub"))
         check_range("pull.post_height_m", self.post_height_m, 0.0, 1.0)
-        check_range("pull.post_radius_m", self.post_radius_m, 0.0, 0.1, low_open=True)
+        check_range("pull.post_radius_m", self.post_radius_m, 0.0, 0.1)
         if self.post_height_m > 0 and self.anchor != "world":
             raise ParameterError(
                 f"pull.post_height_m = {self.post_height_m} holds the object on a fixed post: it needs "

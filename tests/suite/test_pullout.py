@@ -90,12 +90,18 @@ def test_every_object_has_a_pullout_task_under_both_names():
         ("pull.clamp_time_s=0.01", r"pull.clamp_time_s \(relative to 10 \* numerics.timestep_s\) = 0.01 is outside"),
         ("object_name=teapot", r"object_name = 'teapot' is not allowed; choose one of \[.*'sphere'"),
         ("pull.post_height_m=-0.1", r"pull.post_height_m = -0.1 is outside the allowed range \[0, 1\]"),
-        ("pull.post_radius_m=0", r"pull.post_radius_m = 0.0 is outside the allowed range \(0, 0.1\]"),
+        ("pull.post_radius_m=-0.001", r"pull.post_radius_m = -0.001 is outside the allowed range \[0, 0.1\]"),
     ],
 )
 def test_bad_input_names_the_value_and_the_allowed_range(override, message):
     with pytest.raises(ParameterError, match=message):
         resolve_config("pullout/sphere", None, [override])
+
+
+def test_an_object_in_mid_air_needs_a_weld():
+    scene = resolve_config("pullout/sphere", None, []).scene_config()
+    with pytest.raises(ParameterError, match=r"post_radius_m = 0 leaves the object in mid-air: it needs object_weld"):
+        dataclasses.replace(scene, object_weld="none", post_height_m=0.2, post_radius_m=0.0)
 
 
 def test_a_post_needs_the_world_anchor():
@@ -320,20 +326,28 @@ class ObjectTrack:
         """Nothing to close."""
 
 
-def test_object_on_a_post_is_welded_from_the_start_and_its_weight_read_at_the_pull():
-    """The sphere on a 0.15 m post: placed with its lowest point on the post's top, the drape measured from its
-    top, welded before the first step, so actuated filaments landing on it move it by no more than the weld's
-    static sag g (2 dt)^2 (0.16 mm at 2 ms); the post is ground (its contacts with the object are off), and at
-    the pull's start the weld reads what the filament contacts press on the object (two methods: within 0.1 mN of
-    the 0.8 mN the filaments press down with; measured 0.04 mN)."""
+@pytest.mark.parametrize("radius", [0.005, 0.0])
+def test_object_on_a_post_is_welded_from_the_start_and_its_weight_read_at_the_pull(radius):
+    """The sphere on a 0.15 m post (radius 0: no post geom, the weld alone holds it there): placed with its lowest
+    point at the post's top, the drape measured from its top, welded before the first step, so actuated filaments
+    landing on it move it by no more than the weld's static sag g (2 dt)^2 (0.16 mm at 2 ms); the post is ground
+    (its contacts with the object are off), and at the pull's start the weld reads what the filament contacts
+    press on the object (two methods: within 0.1 mN of the 0.8 mN the filaments press down with; measured
+    0.04 mN)."""
     post = 0.15
     config = three_filaments_over_sphere(172e3)
-    config = dataclasses.replace(config, pull=dataclasses.replace(config.pull, post_height_m=post))
+    pull = dataclasses.replace(config.pull, post_height_m=post, post_radius_m=radius)
+    config = dataclasses.replace(config, pull=pull)
     env = TASKS.get("pullout/sphere").make_environment(config, 0)
     env.reset()
     physics = env.physics
     assert physics.object_lowest_z() == pytest.approx(post, abs=1e-9)
-    assert physics.scene.geoms.is_ground[physics.model.ptr.geom(POST).id]
+    geom_names = [physics.model.ptr.geom(i).name for i in range(physics.model.ptr.ngeom)]
+    if radius:
+        assert physics.scene.geoms.is_ground[physics.model.ptr.geom(POST).id]
+        assert physics.model.ptr.geom(POST).size[0] == radius
+    else:
+        assert POST not in geom_names and physics.scene.geoms.is_ground.sum() == 1  # the plane only
     top = post + objects.object_info("sphere").height_m
     assert env.task.schedule.hub_drape_z == pytest.approx(top + 0.1 - 0.05)
     assert physics.data.ptr.eq_active[physics.scene.object_weld] == 1
