@@ -75,5 +75,6 @@ def main() -> None:
     for line in rows[rows["unstable"] != ""].itertuples():
         print(f"unstable: {line.variant} seed {line.seed}: {line.unstable}")
 
+
 if __name__ == "__main__":
     main()
