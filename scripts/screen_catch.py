@@ -23,16 +23,8 @@ import pandas as pd
 from entangle_bench.atomic import atomic_write_text
 from entangle_bench.errors import ParameterError
 from entangle_bench.results import markdown
-from entangle_bench.studies.catch import catch_outcome_table, screen, screen_table
+from entangle_bench.studies.catch import catch_outcome_table, parse_variant, screen, screen_table
 from entangle_bench.studies.trial_args import add_trial_arguments, trial_from_arguments
-
-
-def _variant(text: str) -> tuple[str, list[str]]:
-    name, sep, settings = text.partition(":")
-    if not name or not sep:
-        raise ParameterError(f"--variant {text!r}: expected NAME:a.b=value[,c.d=value], "
-                             "e.g. deep:phases.drape_depth_m=0.3")
-    return name, [s for s in settings.split(",") if s]
 
 
 def main() -> None:
@@ -58,7 +50,7 @@ def main() -> None:
         print(markdown(catch_outcome_table(done), digits=2), "\n")
     if not args.seeds:
         return
-    variants = dict(_variant(v) for v in args.variant) or {"configured": []}
+    variants = dict(parse_variant(v) for v in args.variant) or {"configured": []}
     seeds = range(args.seed, args.seed + args.seeds)
     print(f"machine: {platform.machine()} mujoco {mujoco.__version__}; {task} preset {args.preset} seeds "
           f"{seeds.start}–{seeds.stop - 1} {' '.join(args.overrides)}")

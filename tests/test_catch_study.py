@@ -6,7 +6,8 @@ import pytest
 
 from entangle_bench.errors import ParameterError
 from entangle_bench.runner import simulate
-from entangle_bench.studies.catch import catch_at_lift, catch_outcome_table, screen, screen_table
+from entangle_bench.studies.catch import catch_at_lift, catch_outcome_table, parse_variant, screen, screen_table
+from entangle_bench.suite import resolve_config
 
 
 def test_screen_state_is_the_trials_actuated_snapshot(short_spec, tmp_path):
@@ -64,3 +65,13 @@ def test_screen_table_pairs_seeds_and_survives_a_variant_that_never_stays_stable
     assert table.loc["soft", "stable"] == 0 and np.isnan(table.loc["soft", "contacts_mean"])
     only_unstable = screen_table(rows[rows["variant"] == "soft"])  # the case that raised KeyError before
     assert only_unstable["stable"].tolist() == [0] and only_unstable["paired_seeds"].tolist() == [0]
+
+
+def test_parse_variant_keeps_a_tuple_values_commas():
+    name, overrides = parse_variant("wide:gripper.ring_diameters_m=0.056,0.025,phases.drape_depth_m=0.3")
+    assert name == "wide"
+    assert overrides == ["gripper.ring_diameters_m=0.056,0.025", "phases.drape_depth_m=0.3"]
+    config = resolve_config("eight_branch_tree", "balanced", overrides)
+    assert config.gripper.ring_diameters_m == (0.056, 0.025) and config.phases.drape_depth_m == 0.3
+    with pytest.raises(ParameterError, match="expected NAME:a.b=value"):
+        parse_variant("gripper.ring_diameters_m=0.056")

@@ -22,6 +22,7 @@ import pandas as pd
 from dm_control.rl.control import PhysicsError
 
 from entangle_bench.atomic import atomic_save_npz
+from entangle_bench.errors import ParameterError
 from entangle_bench.metrics.contacts import contact_summary
 from entangle_bench.metrics.stats import wilson_interval
 from entangle_bench.results import SCORED, SUCCESS
@@ -71,6 +72,22 @@ def catch_at_lift(task: str, config: Any, seed: int, save_to: Path | None = None
     row["object_normal_force_n"] = float(summary.normal_forces_n[on_object].sum())
     row.update(sim_time_s=physics.time(), wall_s=time.perf_counter() - start)
     return row
+
+
+def parse_variant(text: str) -> tuple[str, list[str]]:
+    """A screen variant `NAME:a.b=value[,c.d=value]` as (name, overrides); a tuple value keeps its commas
+    (`wide:gripper.ring_diameters_m=0.056,0.025`). ParameterError when the name or the colon is missing."""
+    name, sep, settings = text.partition(":")
+    if not name or not sep:
+        raise ParameterError(f"--variant {text!r}: expected NAME:a.b=value[,c.d=value], "
+                             "e.g. deep:phases.drape_depth_m=0.3")
+    overrides: list[str] = []
+    for item in (s for s in settings.split(",") if s):
+        if "=" in item or not overrides:
+            overrides.append(item)
+        else:
+            overrides[-1] += "," + item
+    return name, overrides
 
 
 def screen(task: str, preset: str, variants: Mapping[str, Sequence[str]], seeds: Sequence[int],
