@@ -2,8 +2,9 @@
 
 The candidate is the `calibration` suite's settings plus `--set` overrides (e.g. a solver). With `--run N` it
 first runs the suite with N seeded trials per condition into OUT and the pull-out suite with the same gripper,
-contact and numerics (`--pullout-trials`, default 5) into OUT/pullout; both resume where a previous run
-stopped and retry unstable trials at half the timestep. It then writes OUT/targets.md and OUT/parameters.md
+contact and numerics (`--pullout-trials`, default 5) into OUT/pullout, and again with the object welded in
+mid-air (no ground to pinch the filaments, no fixture to lasso) into OUT/pullout_midair; all resume where a
+previous run stopped and retry unstable trials at half the timestep. It then writes OUT/targets.md and OUT/parameters.md
 (calibration table: value, default, source, physical range) and prints both.
 
 Usage: python scripts/calibrate.py [--out results/calibration] [--run 20] [--pullout-trials 5] [--set a.b=v ...]
@@ -44,9 +45,9 @@ def main() -> int:
     except EntangleBenchError as exc:
         print(f"calibrate: error: {exc}", file=sys.stderr)
         return 2
-    pullout_csv = args.out / "pullout" / "pullout.csv"
-    pullout = pd.read_csv(pullout_csv) if pullout_csv.exists() else None
-    targets = markdown(calibration.target_table(trials, pullout))
+    pullout, midair = (pd.read_csv(path) if (path := args.out / folder / "pullout.csv").exists() else None
+                       for folder in ("pullout", "pullout_midair"))
+    targets = markdown(calibration.target_table(trials, pullout, midair))
     parameters = markdown(calibration.candidate_parameters(settings))
     atomic_write_text(args.out / "targets.md", f"# Calibration targets ({args.out})\n\n{targets}\n")
     atomic_write_text(args.out / "parameters.md", f"# Calibration parameters ({args.out})\n\n{parameters}\n")

@@ -47,6 +47,12 @@ def test_targets_are_met_missed_or_open_by_trial_count_and_intervals():
     partial = calibration.target_table(rows((TREE, 0.0, 0, 8, 0)), pullout(0.0, float("nan"), -0.0028))
     assert partial["status"].tolist()[4] == "open"
     assert partial["measured"][4] == "sphere 0 mJ, cylinder_51 -2.8 mJ, no toughness: eight_branch_tree"
+    # The mid-air pull-out is judged in its own row; without one there is no such row.
+    both = calibration.target_table(rows((TREE, 0.0, 17, 3, 0)), pullout(0.012, 0.30, 1.5), pullout(0.0, 0.09, -0.003))
+    assert both["target"].tolist()[4:] == ["(d) pull-out toughness", "(d) pull-out toughness, object in mid-air"]
+    assert both["status"].tolist()[4:] == ["met", "missed"]
+    assert both["measured"][5] == "sphere 0 mJ, eight_branch_tree 90 mJ, cylinder_51 -3 mJ (ratios 0, 0.24, -0.0039)"
+    assert len(missed) == 5
 
 
 def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_range():
@@ -76,7 +82,7 @@ def test_offset_condition_is_the_calibration_suites_and_parameters_flag_their_ra
 
 
 def test_a_calibration_run_retries_unstable_trials_and_pulls_out_with_the_candidates_settings(tmp_path):
-    suite_run, pull_run = (build_parser().parse_args(command) for command in calibration.run_commands(
+    suite_run, pull_run, midair_run = (build_parser().parse_args(command) for command in calibration.run_commands(
         tmp_path, 20, 5, 2, ["contact.friction=1.5", "phases.lift_height_m=0.06"]))
     assert (suite_run.target, pull_run.target) == (calibration.CALIBRATION_SUITE, calibration.PULLOUT_SUITE)
     assert (suite_run.trials, pull_run.trials, suite_run.workers) == ("20", "5", "2")
@@ -89,3 +95,9 @@ def test_a_calibration_run_retries_unstable_trials_and_pulls_out_with_the_candid
                                                                 "contact.friction=1.5"])
     assert pull_run.overrides[-1] == "contact.friction=1.5"
     assert resolve_config("pullout_eight_branch_tree", None, pull_run.overrides).contact.friction == 1.5
+    # The mid-air pull-out is the same run with the object welded 0.3 m up and no post geom.
+    assert (midair_run.target, midair_run.out, midair_run.retry_unstable) == (
+        calibration.PULLOUT_SUITE, tmp_path / "pullout_midair", True)
+    assert midair_run.overrides == [*pull_run.overrides, *calibration.MIDAIR_MOUNT]
+    mounted = resolve_config("pullout_cylinder_51", None, midair_run.overrides)
+    assert (mounted.pull.post_height_m, mounted.pull.post_radius_m) == (0.3, 0.0)
